@@ -1,0 +1,28 @@
+# Every target sets itself up on a fresh machine: .venv is created if missing and the project is
+# (re)installed with its test extra only when pyproject.toml changed since the last install.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.install-stamp
+
+.PHONY: install demo test bench clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/nodesim run scenarios/lab/continuous.toml --out runs/demo-continuous
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+bench: $(STAMP)
+	$(BIN)/nodesim bench --json --write benchmarks/latest.json
+
+clean:
+	rm -rf $(VENV) runs .pytest_cache .hypothesis

@@ -1,0 +1,65 @@
+"""Benchmark runner (``nodesim bench``, ``make bench``).
+
+Benchmarks live in ``benchmarks/bench_<topic>.py`` at the repository root.  Each such file defines
+``BENCHMARKS``: a list of zero-argument callables returning a flat dict of figures under stable snake_case
+keys.  A figure compares our code against a baseline measured in the same run (a ratio, e.g.
+``*_speedup_vs_*``); raw times go under keys ending in ``_s``.  The runner merges every dict into one JSON
+object and adds ``host`` information.  No benchmark asserts a time: the figures are reported, not judged.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+from pathlib import Path
+from typing import Callable
+
+from nodesim.errors import NodesimError
+from nodesim.results import host_info
+
+
+def default_bench_dir() -> Path:
+    """``./benchmarks`` when it exists, else the ``benchmarks`` folder of the source checkout."""
+    here = Path.cwd() / "benchmarks"
+    if here.is_dir():
+        return here
+    return Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def discover(bench_dir: Path) -> list[tuple[str, Callable[[], dict]]]:
+    """(module:function, callable) for every benchmark in ``bench_dir``, in file then list order."""
+    if not bench_dir.is_dir():
+        raise NodesimError(f"benchmark folder {bench_dir} not found (run from the repository root or pass --dir)")
+    found = []
+    for path in sorted(bench_dir.glob("bench_*.py")):
+        spec = importlib.util.spec_from_file_location(f"nodesim_bench_{path.stem}", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        found.extend((f"{path.stem}:{fn.__name__}", fn) for fn in getattr(module, "BENCHMARKS", []))
+    return found
+
+
+def best_time_s(fn: Callable[[], object], repeat: int = 5, number: int = 1) -> float:
+    """Best-of-``repeat`` wall time of ``number`` calls, divided by ``number`` (timeit's recommendation)."""
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / number)
+    return best
+
+
+def run_benchmarks(bench_dir: Path, only: str | None = None) -> dict:
+    """Run the benchmarks (optionally those whose name contains ``only``) and merge their figures."""
+    figures: dict = {}
+    for name, fn in discover(bench_dir):
+        if only and only not in name:
+            continue
+        result = fn()
+        clash = set(result) & set(figures)
+        if clash:
+            raise NodesimError(f"benchmark {name} reuses figure keys {sorted(clash)}")
+        figures.update(result)
+    figures["host"] = host_info()
+    return figures

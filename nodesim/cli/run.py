@@ -1,0 +1,64 @@
+"""``nodesim run``: one simulation, written to a run directory."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from nodesim.results import dumps_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "run",
+        help="run one simulation and write a run directory",
+        description="Run one scenario and write manifest.json, summary.json, tables and plots to a run directory.",
+    )
+    p.add_argument("scenario", type=Path, help="scenario TOML file")
+    p.add_argument("--out", type=Path, default=None, help="run directory (default runs/<name>-<UTC timestamp>)")
+    p.add_argument("--seed", type=int, default=None, help="override the scenario's root seed")
+    p.add_argument("--realizations", type=int, default=None, help="override simulation.realizations")
+    p.add_argument("--dry-run", action="store_true", help="validate and print the resolved scenario; write nothing")
+    p.add_argument("--record", type=Path, default=None, help="also write the run as a replayable log (not yet)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from nodesim.errors import NodesimError
+    from nodesim.runner import run_scenario
+    from nodesim.scenario import load_scenario
+
+    scenario, digest = load_scenario(args.scenario)
+    overrides = {}
+    if args.seed is not None:
+        overrides["seed"] = args.seed
+    if args.realizations is not None:
+        overrides["simulation.realizations"] = args.realizations
+    if overrides:
+        scenario = scenario.with_overrides(**overrides)
+    if args.record is not None:
+        raise NodesimError("--record is not implemented yet (it arrives with log replay)")
+    if args.dry_run:
+        sys.stdout.write(dumps_json(scenario.model_dump()).decode())
+        return 0
+    outcome = run_scenario(scenario, digest, args.out)
+    if args.json:
+        sys.stdout.write(dumps_json(outcome.summary).decode())
+    else:
+        print_summary(outcome.summary, outcome.out_dir)
+    return 0
+
+
+def print_summary(summary: dict, out_dir: Path) -> None:
+    rows = [(k, v) for k, v in summary.items() if k != "timing"]
+    width = max(len(k) for k, _ in rows)
+    print(f"{'metric':<{width}}  value")
+    print(f"{'-' * width}  {'-' * 12}")
+    for key, value in rows:
+        shown = f"{value:.4g}" if isinstance(value, float) else ("n/a" if value is None else str(value))
+        print(f"{key:<{width}}  {shown}")
+    print(f"run directory: {out_dir}  (wall time {summary['timing']['wall_s']:.2f} s)")
+
+
+__all__ = ["register", "run"]

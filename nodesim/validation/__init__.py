@@ -1,0 +1,59 @@
+"""Checks of our figures against published ones (``nodesim validate``).
+
+Each module ``nodesim/validation/checks_<topic>.py`` defines ``CHECKS``: a list of zero-argument callables,
+each returning a list of :class:`Check`.  Modules are discovered by name, so adding a topic never edits
+this file.  A check records what we computed, what the source published, the tolerance and whether we are
+inside it; a published figure we cannot reproduce stays in the list with ``ok = False`` and a note saying why.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import asdict, dataclass
+
+
+@dataclass(frozen=True)
+class Check:
+    name: str
+    source: str  # seed document and table/page
+    ours: float
+    published: float
+    tolerance: str  # human-readable rule, e.g. "rel 0.5 %" or "factor 2"
+    ok: bool
+    note: str = ""
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def within_rel(name: str, source: str, ours: float, published: float, rel: float, note: str = "") -> Check:
+    """Check |ours - published| <= rel * |published|."""
+    ok = abs(ours - published) <= rel * abs(published)
+    return Check(name, source, float(ours), float(published), f"rel {rel:g}", bool(ok), note)
+
+
+def within_abs(name: str, source: str, ours: float, published: float, tol: float, note: str = "") -> Check:
+    """Check |ours - published| <= tol."""
+    return Check(name, source, float(ours), float(published), f"abs {tol:g}", bool(abs(ours - published) <= tol), note)
+
+
+def within_factor(name: str, source: str, ours: float, published: float, factor: float, note: str = "") -> Check:
+    """Check published / factor <= ours <= published * factor (both positive)."""
+    ok = published / factor <= ours <= published * factor
+    return Check(name, source, float(ours), float(published), f"factor {factor:g}", bool(ok), note)
+
+
+def check_modules() -> list[str]:
+    """Names of the discovered check modules, sorted."""
+    return sorted(m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("checks_"))
+
+
+def run_checks() -> list[Check]:
+    """Run every discovered check, in module order."""
+    out: list[Check] = []
+    for name in check_modules():
+        module = importlib.import_module(f"{__name__}.{name}")
+        for fn in module.CHECKS:
+            out.extend(fn())
+    return out

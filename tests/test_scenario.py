@@ -1,0 +1,91 @@
+"""Scenario validation: every kind of bad input gets one clear message and writes nothing."""
+
+import pytest
+
+from nodesim.cli.main import main
+from nodesim.errors import ScenarioError
+from nodesim.scenario import Scenario, load_scenario, parse_scenario
+
+
+def test_defaults_are_valid_and_frozen():
+    s = Scenario()
+    assert s.chain.firmware_rate_hz == 1.9
+    with pytest.raises(Exception):
+        s.chain.nodes = 3  # frozen
+
+
+def test_bundled_lab_scenario_loads(lab_toml):
+    scenario, digest = load_scenario(lab_toml)
+    assert scenario.name == "lab-continuous"
+    assert scenario.sensor.encoder_counts_per_rev == 1024
+    assert len(digest) == 64
+
+
+BAD_CASES = [
+    # (toml text, key path named in the message, fragment of the allowed range/problem)
+    ('bogus = 1\n', "bogus", "unknown key"),
+    ('[chain]\nnodez = 2\n', "chain.nodez", "unknown key"),
+    ('[unknown_section]\nx = 1\n', "unknown_section", "unknown key"),
+    ('[chain]\nlink_delay_s = -0.1\n', "chain.link_delay_s", "greater than or equal to 0"),
+    ('[chain]\nlink_loss_probability = 1.5\n', "chain.link_loss_probability", "less than or equal to 1"),
+    ('[chain]\nlink_loss_probability = -0.1\n', "chain.link_loss_probability", "greater than or equal to 0"),
+    ('[chain]\nfirmware_rate_hz = 0.0\n', "chain.firmware_rate_hz", "greater than 0"),
+    ('[schedule]\nsingle_rate_hz = -1.0\n', "schedule.single_rate_hz", "greater than 0"),
+    ('[chain]\nnodes = 0\n', "chain.nodes", "greater than or equal to 1"),
+    ('[chain]\nnodes = "three"\n', "chain.nodes", "valid integer"),
+    ('[chain]\nnodes = 1.5\n', "chain.nodes", "valid integer"),
+    ('[simulation]\nduration_s = "long"\n', "simulation.duration_s", "valid number"),
+    ('[schedule]\nmode = "sometimes"\n', "schedule.mode", "'continuous'"),
+    ('[sensor]\ngyro_arw_deg_per_sqrt_s = -1e-3\n', "sensor.gyro_arw_deg_per_sqrt_s", "greater than or equal to 0"),
+    ('[motion]\ninclination_deg = 190.0\n', "motion.inclination_deg", "less than or equal to 180"),
+    ('[metrics]\nwindow_start_s = 500.0\nwindow_end_s = 400.0\n', "metrics", "must be greater than window_start_s"),
+    ('[simulation]\nduration_s = 100.0\n', "<top level>", "must not exceed simulation.duration_s"),
+]
+
+
+@pytest.mark.parametrize("text,key,fragment", BAD_CASES, ids=[c[1] + ":" + c[2][:20] for c in BAD_CASES])
+def test_bad_scenario_is_rejected_with_key_and_range(write_toml, text, key, fragment):
+    path = write_toml(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    msg = str(info.value)
+    assert str(path) in msg
+    assert key in msg
+    assert fragment in msg
+
+
+@pytest.mark.parametrize("text,key,fragment", BAD_CASES[:6], ids=[c[1] for c in BAD_CASES[:6]])
+def test_cli_rejects_bad_scenario_exit_2_and_writes_nothing(write_toml, tmp_path, capsys, text, key, fragment):
+    path = write_toml(text)
+    out = tmp_path / "run-out"
+    code = main(["run", str(path), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert key in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_not_toml_and_missing_file_are_clear(write_toml, tmp_path):
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(write_toml("name = [unclosed\n"))
+    with pytest.raises(ScenarioError, match="cannot read scenario file"):
+        load_scenario(tmp_path / "nope.toml")
+
+
+def test_unsupported_chain_length_is_a_clear_error_and_writes_nothing(write_toml, tmp_path, capsys):
+    path = write_toml('[chain]\nnodes = 3\n')
+    out = tmp_path / "run-out"
+    assert main(["run", str(path), "--out", str(out)]) == 2
+    assert "chain.nodes = 3" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_overrides_are_revalidated():
+    s = Scenario()
+    assert s.with_overrides(**{"simulation.realizations": 4}).simulation.realizations == 4
+    with pytest.raises(ScenarioError, match="simulation.realizations"):
+        s.with_overrides(**{"simulation.realizations": 0})
+
+
+def test_parse_accepts_int_for_float_fields():
+    assert parse_scenario({"simulation": {"duration_s": 620}}).simulation.duration_s == 620.0
