@@ -6,9 +6,17 @@ traceback and exits with status 2.
 """
 
 
+from channel.errors import ChannelError
+from firmware_model.errors import FirmwareError
+
+
 class NodesimError(Exception):
     """A user-caused error (bad input, impossible physics).  ``str(err)`` is the full user message."""
 
 
 class ScenarioError(NodesimError):
     """A scenario file that cannot be loaded or does not validate."""
+
+
+USER_ERRORS = (NodesimError, ChannelError, FirmwareError)
+"""Every user-caused error type of the three packages; the CLI turns each into one line and exit 2."""

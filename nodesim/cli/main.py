@@ -1,7 +1,7 @@
 """The ``nodesim`` console script: one parser, one module per sub-command.
 
 Each sub-command lives in ``nodesim/cli/<name>.py`` and exposes ``register(subparsers)``, which adds its
-parser and sets ``func``.  User errors (:class:`nodesim.errors.NodesimError`) print one clear message on
+parser and sets ``func``.  User errors (:data:`nodesim.errors.USER_ERRORS`) print one clear message on
 stderr, without a traceback, and exit with status 2.
 """
 
@@ -12,7 +12,7 @@ import importlib
 import sys
 
 import nodesim
-from nodesim.errors import NodesimError
+from nodesim.errors import USER_ERRORS
 
 COMMANDS = ("run", "link", "uncertainty", "calibrate", "sweep", "replay", "report", "validate", "bench")
 
@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except NodesimError as err:
+    except USER_ERRORS as err:
         print(f"nodesim {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
