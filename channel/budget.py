@@ -44,8 +44,7 @@ class LinkBudget:
 
     def received_power_dbm(self, path_loss_db):
         """Thesis eq 5.1."""
-        return self.tx_power_dbm + self.tx_gain_dbi + self.rx_gain_dbi - self.other_losses_db \
-            - as_float_array("path_loss_db", path_loss_db)
+        return self.tx_power_dbm + self.tx_gain_dbi + self.rx_gain_dbi - self.other_losses_db - _loss(path_loss_db)
 
     def margin_db(self, path_loss_db):
         return self.received_power_dbm(path_loss_db) - self.sensitivity_dbm
@@ -53,6 +52,17 @@ class LinkBudget:
     def allowed_path_loss_db(self, margin_db):
         """Path loss that leaves exactly ``margin_db`` of margin."""
         return self.max_path_loss_db - as_float_array("margin_db", margin_db)
+
+
+def _loss(path_loss_db) -> np.ndarray:
+    """Path loss as an array; +inf is allowed (a mode below cutoff: nothing arrives), NaN and -inf are not."""
+    try:
+        loss = np.asarray(path_loss_db, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ChannelError(f"path_loss_db must be a number (got {path_loss_db!r})") from err
+    if np.any(np.isnan(loss) | (loss == -np.inf)):
+        raise ChannelError("path_loss_db must be a number or +inf (got NaN or -inf)")
+    return loss
 
 
 CC1101_THRESHOLD_DBM = -103.0

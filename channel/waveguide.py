@@ -96,10 +96,12 @@ class Filling:
 AIR = Filling("air", 1.0, 0.0, 1.0)
 
 
-def water_filling(f_hz: float, temperature_c: float = 20.0) -> Filling:
-    """Fresh water at ``f_hz`` from the Debye model shared with the soil module (no ionic conductivity)."""
+def water_filling(f_hz, temperature_c=20.0) -> Filling:
+    """Fresh water at ``f_hz`` from the Debye model shared with the soil module (no ionic conductivity).
+
+    Arrays are allowed (one filling per frequency of a sweep)."""
     e1, e2 = water_permittivity(f_hz, temperature_c)
-    return Filling("water", float(e1), float(e2 / e1), 1.0)
+    return Filling("water", e1, e2 / e1, 1.0)
 
 
 def modes_by_cutoff(m_max: int = 6, n_max: int = 3) -> list[Mode]:
