@@ -205,6 +205,8 @@ def max_distance_m(max_path_loss_db, alpha_np_per_m, beta_rad_per_m,
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         arg = alpha / beta * np.exp(log_bd)
         lossy = np.real(lambertw(arg)) / alpha
+        # tiny alpha d: W(x) = x - x^2 + 1.5 x^3 - ... keeps full precision where W(x)/alpha would not
+        lossy = np.where(arg < 1e-4, lossless * (1.0 - arg + 1.5 * arg**2 - 8.0 / 3.0 * arg**3), lossy)
     # exp() overflows only for absurd budgets; there the attenuation term dominates: d ~ (log_bd - ln(beta d))/alpha
     big = ~np.isfinite(arg)
     if np.any(big):

@@ -15,7 +15,7 @@ This module therefore uses a documented handbook-anchored model (an assumption, 
   above ~0.4 % C (AISI 1080 ~ 0.18 uOhm*m), so carbon is restricted to 0.05-0.40 wt %, which covers every
   API 5L grade of thesis Table 5.1 (0.21-0.31 wt %).
 
-Example: 0.26 wt % C (API 5L X60 / B ERW) gives 0.186 uOhm*m at 20 degC and 0.34 uOhm*m at 200 degC.
+Example: 0.26 wt % C (API 5L X60 / B ERW) gives 0.186 uOhm*m at 20 degC and 0.320 uOhm*m at 200 degC.
 Ferromagnetism of the wall (mu_r at 5 GHz) is a separate parameter of the waveguide model (default 1).
 """
 
