@@ -44,7 +44,7 @@ SOIL_PARAMS = (
     Param("vwc", 0.2, "volumetric water content (0-1]"),
     Param("bulk_density_g_cm3", 1.5, "soil bulk density [g/cm^3]"),
     Param("particle_density_g_cm3", 2.66, "soil particle (specific) density [g/cm^3]"),
-    Param("temperature_c", 20.0, "soil temperature [degC] (0-40)"),
+    Param("temperature_c", 20.0, "soil temperature [degC] (0-40); for the pipe, the wall temperature (-20 to 400)"),
     Param("tx_power_dbm", budget.SOIL_868_BUDGET.tx_power_dbm, "transmit power [dBm] (CC1101/AMB8420: 2)"),
     Param("sensitivity_dbm", budget.SOIL_868_BUDGET.sensitivity_dbm, "receiver sensitivity [dBm] (CC1101: -110)"),
     *_BUDGET,

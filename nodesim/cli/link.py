@@ -43,7 +43,8 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print machine-readable JSON on stdout")
     seen = set()
     for title, params in (("soil", SOIL_PARAMS), ("pipe", PIPE_PARAMS)):
-        group = p.add_argument_group(f"{title} parameters")
+        group = p.add_argument_group("soil and shared parameters (defaults: soil, then pipe where they differ)"
+                                     if title == "soil" else "pipe parameters")
         for prm in params:
             if prm.key in seen:
                 continue
@@ -53,7 +54,7 @@ def register(sub) -> None:
             default_txt = f"{prm.default:g}" + (f" soil, {other_default:g} pipe" if other_default not in (None, prm.default)
                                                  and title == "soil" else "")
             group.add_argument(_option(prm.key), dest=prm.key, type=float, default=None, metavar="X",
-                               help=f"{prm.help} (default {default_txt})")
+                               help=f"{prm.help} (default {default_txt})".replace("%", "%%"))
     pipe = p.add_argument_group("pipe options")
     pipe.add_argument("--filling", choices=FILLINGS, default="air", help="what fills the bore (default air)")
     pipe.add_argument("--mode", default="TE11", help="mode whose attenuation is reported (default the dominant TE11)")
