@@ -14,6 +14,10 @@ Conductor attenuation (eqs 5.6-5.8, the standard Pozar / Balanis forms), eta the
 Dielectric loss of a filling with loss tangent tan_d (Pozar eq 3.29):
 ``alpha_d = k^2 tan_d / (2 beta)``, k = 2 pi f sqrt(mu_r eps_r) / c, beta = sqrt(k^2 - k_c^2).
 
+Cross-checked against scikit-rf's ``CircularWaveguide`` (tests/channel/test_waveguide.py): cutoffs and
+conductor attenuation agree to 1e-6 for air filling; skrf divides by the free-space eta0 even for a filled
+guide and puts the filling's mu (not the wall's) into R_s, so with a dielectric filling ours = skrf * sqrt(eps_r).
+
 At or below a mode's cutoff the mode does not propagate: the vectorised functions return ``inf`` there and
 the link functions raise ChannelError saying which cutoff the frequency is below.
 """
