@@ -34,7 +34,7 @@ def check_range(name: str, value, lo: float | None = None, hi: float | None = No
         bad |= (arr >= hi) if hi_open else (arr > hi)
     if np.any(bad):
         left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
+        right = ")" if hi_open or hi is None else "]"
         lo_s = "-inf" if lo is None else f"{lo:g}"
         hi_s = "inf" if hi is None else f"{hi:g}"
         suffix = f" {unit}" if unit else ""

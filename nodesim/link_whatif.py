@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from channel import budget, soil, steel, waveguide
+from channel.errors import ChannelError
 from nodesim.errors import NodesimError
 
 
@@ -131,7 +132,10 @@ def filling_for(name: str, p: dict) -> waveguide.Filling:
     if name == "air":
         return waveguide.AIR
     if name == "water":
-        return waveguide.water_filling(p["frequency_hz"], p["temperature_c"])
+        try:
+            return waveguide.water_filling(p["frequency_hz"], p["temperature_c"])
+        except ChannelError as err:
+            raise NodesimError(f"--filling water takes the water temperature from temperature_c: {err}") from err
     if name == "fluid":
         return waveguide.Filling("fluid", p["eps_r"], p["loss_tangent"], 1.0)
     raise NodesimError(f"--filling must be one of {', '.join(FILLINGS)} (got {name!r})")

@@ -106,7 +106,7 @@ def test_bad_soil_is_a_clear_error(kw, name):
 
 
 def test_bad_link_input_is_a_clear_error():
-    with pytest.raises(ChannelError, match=r"distance_m must be in \(0, inf\] m"):
+    with pytest.raises(ChannelError, match=r"distance_m must be in \(0, inf\) m"):
         soil.soil_path_loss(868e6, -0.3, soil.Soil())
     with pytest.raises(ChannelError, match="frequency_hz"):
         soil.soil_path_loss(0.0, 0.3, soil.Soil())

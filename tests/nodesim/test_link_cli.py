@@ -99,6 +99,8 @@ def test_plot_is_written_atomically(tmp_path, capsys):
     (["pipe", "--frequency-hz", "2.4e9"], "no mode propagates"),
     (["pipe", "--length-m", "-1"], "length_m"),
     (["pipe", "--grade", "X99"], "grade"),
+    (["pipe", "--filling", "water", "--temperature-c", "100"], "water temperature"),
+    (["pipe", "--carbon-wt-pct", "1.0"], "carbon_wt_pct"),
     (["soil", "--radius-m", "0.03"], "do not apply"),
     (["soil", "--sweep", "moisture=0:1:3"], "allowed"),
     (["soil", "--sweep", "vwc=0:1"], "START:STOP:N"),
