@@ -97,9 +97,20 @@ def ber(ebn0_linear, modulation: str = "fsk_noncoherent", modulation_index: floa
     raise ChannelError(f"modulation must be one of {list(MODULATIONS)} (got {modulation!r})")
 
 
+def _power_dbm(name: str, value) -> np.ndarray:
+    """A power or ratio in dB as an array; -inf (nothing received) is allowed, NaN and +inf are not."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ChannelError(f"{name} must be a number (got {value!r})") from err
+    if np.any(np.isnan(arr) | (arr == np.inf)):
+        raise ChannelError(f"{name} must be a number or -inf (got NaN or +inf)")
+    return arr
+
+
 def ebn0_from_snr(snr_db, bandwidth_hz, bit_rate_bps):
     """Eb/N0 (linear) = SNR * B / R_b."""
-    snr = as_float_array("snr_db", snr_db)
+    snr = _power_dbm("snr_db", snr_db)
     return 10.0 ** (snr / 10.0) * check_positive("bandwidth_hz", bandwidth_hz) / check_positive("bit_rate_bps", bit_rate_bps)
 
 
@@ -111,12 +122,17 @@ def per_from_ber(ber_value, frame_bits):
         return -np.expm1(n * np.log1p(-p))
 
 
+def link_quality(rx_power_dbm, frame_bits, radio: Radio = Radio()) -> dict:
+    """Noise floor, SNR, BER and PER of frames received at ``rx_power_dbm`` (vectorised; -inf = nothing arrives)."""
+    floor = noise_floor_dbm(radio.bandwidth_hz, radio.noise_figure_db, radio.temperature_k)
+    snr = _power_dbm("rx_power_dbm", rx_power_dbm) - floor
+    b = ber(ebn0_from_snr(snr, radio.bandwidth_hz, radio.bit_rate_bps), radio.modulation, radio.modulation_index)
+    return {"noise_floor_dbm": floor, "snr_db": snr, "ber": b, "packet_error_rate": per_from_ber(b, frame_bits)}
+
+
 def packet_error_rate(rx_power_dbm, frame_bits, radio: Radio = Radio()):
     """PER of a frame of ``frame_bits`` bits received at ``rx_power_dbm`` (vectorised)."""
-    snr = as_float_array("rx_power_dbm", rx_power_dbm) - noise_floor_dbm(radio.bandwidth_hz, radio.noise_figure_db,
-                                                                          radio.temperature_k)
-    g = ebn0_from_snr(snr, radio.bandwidth_hz, radio.bit_rate_bps)
-    return per_from_ber(ber(g, radio.modulation, radio.modulation_index), frame_bits)
+    return link_quality(rx_power_dbm, frame_bits, radio)["packet_error_rate"]
 
 
 def draw_packet_success(rx_power_dbm, frame_bits, rng: np.random.Generator, radio: Radio = Radio()):

@@ -9,7 +9,8 @@ soil: ``eps_real``, ``eps_imag``, ``alpha_np_per_m``, ``beta_rad_per_m``, ``path
 ``target_margin_db``), ``exceeds_porosity``;
 pipe: ``cutoff_hz`` (per mode: ``TE11``, ``TM01``, ``TE21``, ``TE01``, ...), ``propagating_modes``, ``mode``,
 ``resistivity_ohm_m``, ``attenuation_db_per_m`` (of ``mode``, default the dominant TE11; conductor + dielectric),
-``loss_db`` (attenuation x length + other losses), ``rx_power_dbm``, ``margin_db``, ``max_length_m``.
+``loss_db`` (attenuation x length), ``rx_power_dbm``, ``margin_db``, ``max_length_m``;
+both: ``noise_floor_dbm``, ``snr_db``, ``ber``, ``packet_error_rate`` (frame of ``frame_bits``, :mod:`channel.per`).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from channel import budget, soil, steel, waveguide
+from channel import budget, per, soil, steel, waveguide
 from channel.errors import ChannelError
 from nodesim.errors import NodesimError
 
@@ -35,6 +36,11 @@ _BUDGET = (
     Param("rx_gain_dbi", 0.0, "receive antenna gain [dBi]"),
     Param("other_losses_db", 0.0, "other fixed losses: cables, coupling, mismatch [dB]"),
     Param("target_margin_db", 10.0, "margin to keep when answering 'how far apart' [dB]"),
+    Param("frame_bits", 160.0, "frame length for the packet error rate [bits]"),
+    Param("bit_rate_bps", per.Radio.bit_rate_bps, "bit rate [bit/s] (assumption)"),
+    Param("bandwidth_hz", per.Radio.bandwidth_hz, "receiver noise bandwidth [Hz] (assumption)"),
+    Param("noise_figure_db", per.Radio.noise_figure_db, "receiver noise figure [dB] (assumption)"),
+    Param("modulation_index", per.Radio.modulation_index, "FSK modulation index h (1: orthogonal tones)"),
 )
 
 SOIL_PARAMS = (
@@ -107,13 +113,19 @@ def _budget(p: dict) -> budget.LinkBudget:
                              p["other_losses_db"])
 
 
-def evaluate_soil(p: dict) -> dict:
+def _quality(p: dict, rx_power_dbm, modulation: str) -> dict:
+    radio = per.Radio(p["bit_rate_bps"], p["bandwidth_hz"], p["noise_figure_db"], modulation, p["modulation_index"])
+    return per.link_quality(rx_power_dbm, p["frame_bits"], radio)
+
+
+def evaluate_soil(p: dict, modulation: str = "fsk_noncoherent") -> dict:
     """Every soil output for parameter values (floats or one broadcast array)."""
     s = soil.Soil(p["sand"], p["clay"], p["vwc"], p["bulk_density_g_cm3"], p["particle_density_g_cm3"],
                   p["temperature_c"])
     r = soil.soil_path_loss(p["frequency_hz"], p["distance_m"], s, p["path_loss_constant_db"])
     b = _budget(p)
     allowed = b.allowed_path_loss_db(p["target_margin_db"])
+    rss = b.received_power_dbm(r.path_loss_db)
     return {
         "eps_real": r.eps_real,
         "eps_imag": r.eps_imag,
@@ -121,10 +133,11 @@ def evaluate_soil(p: dict) -> dict:
         "beta_rad_per_m": r.beta_rad_per_m,
         "path_loss_db": r.path_loss_db,
         "free_space_loss_db": soil.free_space_path_loss_db(p["distance_m"], p["frequency_hz"]),
-        "rss_dbm": b.received_power_dbm(r.path_loss_db),
+        "rss_dbm": rss,
         "margin_db": b.margin_db(r.path_loss_db),
         "max_distance_m": soil.max_distance_m(allowed, r.alpha_np_per_m, r.beta_rad_per_m, p["path_loss_constant_db"]),
         "exceeds_porosity": r.exceeds_porosity,
+        **_quality(p, rss, modulation),
     }
 
 
@@ -142,7 +155,7 @@ def filling_for(name: str, p: dict) -> waveguide.Filling:
 
 
 def evaluate_pipe(p: dict, filling: str = "air", mode: str = "TE11", resistivity_ohm_m: float | None = None,
-                  sweeping: bool = False) -> dict:
+                  sweeping: bool = False, modulation: str = "fsk_noncoherent") -> dict:
     """Every pipe output; a single point below the mode's cutoff is a ChannelError, a sweep gives inf there."""
     fill = filling_for(filling, p)
     md = waveguide.Mode.parse(mode)
@@ -177,18 +190,21 @@ def evaluate_pipe(p: dict, filling: str = "air", mode: str = "TE11", resistivity
         "rx_power_dbm": b.received_power_dbm(loss),
         "margin_db": b.margin_db(loss),
         "max_length_m": max_len,
+        **_quality(p, b.received_power_dbm(loss), modulation),
     }
 
 
-def evaluate(medium: str, values: dict, sweep: tuple[str, np.ndarray] | None = None, **pipe_options) -> dict:
-    """Evaluate ``medium`` at ``values`` (one entry per parameter), optionally sweeping one key."""
+def evaluate(medium: str, values: dict, sweep: tuple[str, np.ndarray] | None = None, **options) -> dict:
+    """Evaluate ``medium`` at ``values`` (one entry per parameter), optionally sweeping one key.
+
+    ``options``: ``modulation`` for both media; ``filling``, ``mode``, ``resistivity_ohm_m`` for the pipe."""
     p = dict(values)
     if sweep is not None:
         p[sweep[0]] = sweep[1]
     if medium == "soil":
-        out = evaluate_soil(p)
+        out = evaluate_soil(p, **options)
     else:
-        out = evaluate_pipe(p, sweeping=sweep is not None, **pipe_options)
+        out = evaluate_pipe(p, sweeping=sweep is not None, **options)
     numeric = (np.ndarray, np.generic, float, int)
     if sweep is not None:
         n = sweep[1].size

@@ -16,8 +16,9 @@ import numpy as np
 from nodesim.results import dumps_json
 
 SOIL_TABLE = ("eps_real", "eps_imag", "alpha_np_per_m", "beta_rad_per_m", "free_space_loss_db", "path_loss_db",
-              "rss_dbm", "margin_db", "max_distance_m", "exceeds_porosity")
-PIPE_TABLE = ("resistivity_ohm_m", "attenuation_db_per_m", "loss_db", "rx_power_dbm", "margin_db", "max_length_m")
+              "rss_dbm", "margin_db", "max_distance_m", "exceeds_porosity", "snr_db", "packet_error_rate")
+PIPE_TABLE = ("resistivity_ohm_m", "attenuation_db_per_m", "loss_db", "rx_power_dbm", "margin_db", "max_length_m",
+              "snr_db", "packet_error_rate")
 
 
 def _option(key: str) -> str:
@@ -25,6 +26,7 @@ def _option(key: str) -> str:
 
 
 def register(sub) -> None:
+    from channel.per import MODULATIONS
     from nodesim.link_whatif import FILLINGS, PIPE_PARAMS, SOIL_PARAMS
 
     p = sub.add_parser(
@@ -55,6 +57,8 @@ def register(sub) -> None:
                                                  and title == "soil" else "")
             group.add_argument(_option(prm.key), dest=prm.key, type=float, default=None, metavar="X",
                                help=f"{prm.help} (default {default_txt})".replace("%", "%%"))
+    p.add_argument("--modulation", choices=MODULATIONS, default="fsk_noncoherent",
+                   help="modulation for the BER/PER (default fsk_noncoherent: 2-FSK/GFSK, CC1101-like)")
     pipe = p.add_argument_group("pipe options")
     pipe.add_argument("--filling", choices=FILLINGS, default="air", help="what fills the bore (default air)")
     pipe.add_argument("--mode", default="TE11", help="mode whose attenuation is reported (default the dominant TE11)")
@@ -86,8 +90,9 @@ def run(args) -> int:
     medium = args.medium
     values = _values(args, medium)
     sweep = parse_sweep(medium, args.sweep) if args.sweep else None
-    opts = {} if medium == "soil" else {"filling": args.filling, "mode": args.mode,
-                                         "resistivity_ohm_m": args.resistivity_ohm_m}
+    opts = {"modulation": args.modulation}
+    if medium == "pipe":
+        opts |= {"filling": args.filling, "mode": args.mode, "resistivity_ohm_m": args.resistivity_ohm_m}
     out = evaluate(medium, values, sweep, **opts)
     if args.plot is not None:
         _plot(medium, values, sweep, out, opts, args.plot)

@@ -109,3 +109,11 @@ def test_bad_radio_is_a_clear_error():
         per.Radio(bandwidth_hz=0)
     with pytest.raises(ChannelError, match="frame_bits"):
         per.per_from_ber(0.1, 0)
+
+
+def test_link_quality_when_nothing_arrives():
+    q = per.link_quality(np.array([-np.inf, -200.0, -60.0]), 160)
+    assert q["packet_error_rate"][0] == pytest.approx(1.0) and q["ber"][0] == pytest.approx(0.5)
+    assert q["packet_error_rate"][2] == 0.0
+    with pytest.raises(ChannelError, match="rx_power_dbm"):
+        per.link_quality(np.nan, 160)

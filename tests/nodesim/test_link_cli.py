@@ -7,8 +7,9 @@ import pytest
 
 from nodesim.cli.main import main
 
-SOIL_KEYS = {"path_loss_db", "rss_dbm", "margin_db", "alpha_np_per_m", "beta_rad_per_m", "max_distance_m"}
-PIPE_KEYS = {"cutoff_hz", "attenuation_db_per_m", "loss_db", "margin_db", "max_length_m", "propagating_modes"}
+QUALITY = {"noise_floor_dbm", "snr_db", "ber", "packet_error_rate"}
+SOIL_KEYS = {"path_loss_db", "rss_dbm", "margin_db", "alpha_np_per_m", "beta_rad_per_m", "max_distance_m"} | QUALITY
+PIPE_KEYS = {"cutoff_hz", "attenuation_db_per_m", "loss_db", "margin_db", "max_length_m", "propagating_modes"} | QUALITY
 
 
 def run_json(capsys, *argv):
@@ -110,3 +111,14 @@ def test_bad_input_exits_2_with_one_clear_line(argv, words, capsys):
     assert main(["link", *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and words in err
+
+
+def test_packet_error_rate_follows_the_margin(capsys):
+    """End to end: wetter soil at 1.2 m -> less margin -> higher PER; a pipe sweep past max length -> PER -> 1."""
+    out = run_json(capsys, "soil", "--distance-m", "1.2", "--sweep", "vwc=0.2:0.8:7", "--frame-bits", "256")
+    assert np.all(np.diff(out["margin_db"]) < 0)
+    assert np.all(np.diff(out["packet_error_rate"]) >= 0) and out["packet_error_rate"][-1] > out["packet_error_rate"][0]
+    pipe = run_json(capsys, "pipe", "--sweep", "length_m=100:4000:40")
+    assert pipe["packet_error_rate"][0] == 0.0 and pipe["packet_error_rate"][-1] == 1.0
+    below = run_json(capsys, "pipe", "--sweep", "frequency_hz=2e9:5e9:4")
+    assert below["packet_error_rate"][0] == pytest.approx(1.0) and below["snr_db"][0] is None
