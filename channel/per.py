@@ -32,7 +32,7 @@ from scipy.optimize import brentq
 from scipy.special import erfc, i0e
 from scipy.stats import ncx2
 
-from channel._validate import as_float_array, check_positive, check_range
+from channel._validate import check_positive, check_range
 from channel.constants import K_BOLTZMANN_J_K, T0_K
 from channel.errors import ChannelError
 
