@@ -21,7 +21,6 @@ Ferromagnetism of the wall (mu_r at 5 GHz) is a separate parameter of the wavegu
 
 from __future__ import annotations
 
-
 from channel._validate import check_range
 from channel.errors import ChannelError
 
