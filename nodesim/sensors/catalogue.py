@@ -46,6 +46,7 @@ MODEL_KEYS = {
     "accel_lsb_per_g",
     "accel_scale_factor_error",
     "accel_misalignment_rad",
+    "adc_bits",
 }
 REQUIRED_MODEL_KEYS = {"sample_rate_hz", "gyro_full_scale_deg_s", "gyro_lsb_per_deg_s", "accel_full_scale_g", "accel_lsb_per_g"}
 FLOOR_PER_B = 0.6643  # Allan floor of bias instability per unit coefficient B (eq V.34)
@@ -118,6 +119,7 @@ def build_imu_spec(name: str, m: dict) -> ImuSpec:
         gm_sigma=arr("gyro_gm_sigma_deg_s") * DEG,
         gm_tau_s=float(m.get("gyro_gm_tau_s", 500.0)),
         misalignment=_misalignment(float(m.get("gyro_scale_factor_error", 0.0)), float(m.get("gyro_misalignment_rad", 0.0))),
+        adc_bits=int(m.get("adc_bits", 16)),
     )
     accel = TriadSpec(
         name=f"{name} accel",
@@ -127,6 +129,7 @@ def build_imu_spec(name: str, m: dict) -> ImuSpec:
         bias=arr("accel_turn_on_bias_mg") * 1e-3 * G0_M_S2,
         bias_instability=arr("accel_bias_stability_mg") * 1e-3 * G0_M_S2 / FLOOR_PER_B,
         misalignment=_misalignment(float(m.get("accel_scale_factor_error", 0.0)), float(m.get("accel_misalignment_rad", 0.0))),
+        adc_bits=int(m.get("adc_bits", 16)),
     )
     return ImuSpec(name=name, gyro=gyro, accel=accel, sample_rate_hz=float(m["sample_rate_hz"]))
 

@@ -30,6 +30,7 @@ from nodesim.errors import NodesimError
 from nodesim.sensors import noise
 
 INT16_MIN, INT16_MAX = -32768, 32767
+ADC_TYPES = {16: np.int16, 32: np.int32}
 MAX_CONDITION = 1e6
 """Largest condition number of a misalignment matrix accepted as invertible."""
 
@@ -64,17 +65,20 @@ class TriadSpec:
     bias_temp_coeff: object = 0.0  # bias change per kelvin, per axis
     scale_temp_coeff: float = 0.0  # relative scale change per kelvin
     reference_temperature_c: float = 25.0
+    adc_bits: int = 16  # 16 (MEMS ADC, e.g. MPU6500) or 32 (sensors that output fine-grained words)
 
     def __post_init__(self):
         where = f"sensor spec {self.name!r}"
+        if self.adc_bits not in ADC_TYPES:
+            raise NodesimError(f"{where}: adc_bits = {self.adc_bits!r} (allowed: 16, 32)")
         for key in ("full_scale", "lsb_per_unit"):
             v = getattr(self, key)
             if not (math.isfinite(v) and v > 0.0):
                 raise NodesimError(f"{where}: {key} = {v} must be > 0")
-        if self.full_scale * self.lsb_per_unit > -INT16_MIN:
+        if self.full_scale * self.lsb_per_unit > self.count_limits[1] + 1:
             raise NodesimError(
                 f"{where}: full_scale * lsb_per_unit = {self.full_scale * self.lsb_per_unit:.1f} counts "
-                f"exceeds the int16 range (allowed: <= {-INT16_MIN})"
+                f"exceeds the int{self.adc_bits} range (allowed: <= {self.count_limits[1] + 1})"
             )
         for key in ("white_density", "bias_instability", "gm_sigma", "rate_random_walk"):
             arr = _vec3(f"{where}: {key}", getattr(self, key))
@@ -102,6 +106,11 @@ class TriadSpec:
         object.__setattr__(self, "misalignment", m)
         if not math.isfinite(self.scale_temp_coeff):
             raise NodesimError(f"{where}: scale_temp_coeff must be finite")
+
+    @property
+    def count_limits(self) -> tuple[int, int]:
+        info = np.iinfo(ADC_TYPES[self.adc_bits])
+        return int(info.min), int(info.max)
 
     @property
     def lsb(self) -> float:
@@ -132,9 +141,10 @@ class TriadSpec:
         return out
 
     def quantise(self, value: np.ndarray) -> np.ndarray:
-        """Full-scale clipping then rounding to int16 ADC counts."""
+        """Full-scale clipping then rounding to ADC counts (int16 by default)."""
         clipped = np.clip(value, -self.full_scale, self.full_scale)
-        return np.clip(np.rint(clipped * self.lsb_per_unit), INT16_MIN, INT16_MAX).astype(np.int16)
+        lo, hi = self.count_limits
+        return np.clip(np.rint(clipped * self.lsb_per_unit), lo, hi).astype(ADC_TYPES[self.adc_bits])
 
     def measure(self, true_input, rng: np.random.Generator, dt_s: float, temperature_c=None) -> "TriadSamples":
         """Raw counts and engineering-unit output for true inputs sampled every ``dt_s``."""
