@@ -65,6 +65,13 @@ class RotaryEncoder:
         """Whole counts nearest the string angle (relative to the zero offset)."""
         return np.rint((np.asarray(angle_rad, dtype=float) - self.zero_offset_rad) / self.step_rad).astype(np.int64)
 
+    def read_rad(self, true_angle_rad) -> np.ndarray:
+        """Quantised angle (no clock model): the nearest whole count times the step."""
+        return self.angle_of_counts(self.counts_at(true_angle_rad))
+
+    def angle_of_counts(self, counts) -> np.ndarray:
+        return np.asarray(counts) * self.step_rad + self.zero_offset_rad
+
     def read(self, angle_of_time: Callable[[np.ndarray], np.ndarray], node_time_s) -> EncoderReading:
         """Read at node times: ``angle_of_time(t)`` is the true string angle (rad) at true time t.
 
@@ -76,7 +83,7 @@ class RotaryEncoder:
         c_before = self.counts_at(angle_of_time(t_enc - self.rate_window_s))
         return EncoderReading(
             counts=c_now,
-            yaw_rad=c_now * self.step_rad + self.zero_offset_rad,
+            yaw_rad=self.angle_of_counts(c_now),
             rate_rad_s=(c_now - c_before) * self.step_rad / self.rate_window_s,
             encoder_time_s=t_enc,
         )
