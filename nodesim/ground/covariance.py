@@ -78,7 +78,7 @@ def make_context(survey: Survey, path: Wellpath, model: ErrorModel, site: Site) 
 
 
 def error_vectors(source: ErrorSource, ctx: Context, deriv) -> tuple[np.ndarray, np.ndarray]:
-    """(e, e*) of one source, each (n, 3) in m, for a unit... times the source magnitude."""
+    """(e, e*) of one source, each (n, 3) in m (weighting function times derivatives times magnitude)."""
     from nodesim.ground.weighting import weighting
 
     wts: Weights = weighting(source.weight)(ctx)

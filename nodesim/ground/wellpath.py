@@ -87,9 +87,9 @@ def interpolate_md(path: Wellpath, md_m) -> np.ndarray:
     """N, E, TVD at arbitrary MDs on the minimum-curvature arc (shape (m, 3)).
 
     Within the course k-1 -> k with dogleg DL, the point at fraction f of the course lies on the circular
-    arc; its direction is t(f) = [sin((1-f)DL) t0 + sin(f DL) t1] / sin DL (slerp) and its offset from
-    station k-1 is f*dMD/2 * (t0 + t(f)) * RF(f*DL)... computed exactly as a minimum-curvature course
-    from station k-1 to the interpolated direction.  Balanced-tangential paths are interpolated linearly.
+    arc; its direction is t(f) = [sin((1-f)DL) t0 + sin(f DL) t1] / sin DL (slerp), and its offset from
+    station k-1 is the minimum-curvature course from t0 to t(f) over f*dMD (dogleg f*DL), which lies
+    exactly on the arc.  Balanced-tangential paths are interpolated linearly between stations.
     """
     md = np.atleast_1d(np.asarray(md_m, dtype=float))
     s = path.survey
