@@ -153,3 +153,25 @@ def ne_to_ab(n_m, e_m):
 def ab_to_ne(a_m, b_m):
     """Inverse of :func:`ne_to_ab`: N = -B, E = A."""
     return -np.asarray(b_m, dtype=float), np.asarray(a_m, dtype=float)
+
+
+def survey_angles_from_ab(a_m, b_m, course_m: float = 2.0, cumulative: bool = True):
+    """Inclination and azimuth [deg] of the thesis field data from A/B displacements (eqs 4.1-4.2).
+
+    I_A = asin(d_A / L), I_B = asin(d_B / L), I = sqrt(I_A^2 + I_B^2), Az = atan2(A, -B) (digest 1.2).
+    ``cumulative=True`` applies eq 4.1 to the tabulated displacements as printed (they are cumulative
+    from the top, which reproduces table 4.1 but overstates I, digest section 9 #4); ``False`` uses the
+    increment over each course of length L instead.
+    """
+    a = np.asarray(a_m, dtype=float)
+    b = np.asarray(b_m, dtype=float)
+    if not cumulative:
+        a = np.diff(a, prepend=0.0)
+        b = np.diff(b, prepend=0.0)
+    ratio = np.stack([a, b]) / course_m
+    if np.any(np.abs(ratio) > 1):
+        raise NodesimError(f"A/B displacement larger than the course length {course_m} m")
+    i_a, i_b = np.degrees(np.arcsin(ratio))
+    inc = np.hypot(i_a, i_b)
+    azi = np.remainder(np.degrees(np.arctan2(a, -b)), 360.0)
+    return inc, azi

@@ -127,3 +127,21 @@ def test_iscwsa_wellpaths_match(iscwsa_dir, name, n_ref, e_ref):
     assert p.n_m[-1] == pytest.approx(n_ref, abs=2e-3)
     assert p.e_m[-1] == pytest.approx(e_ref, abs=2e-3)
     assert np.max(np.abs(p.tvd_m - w.tvd_m)) < 0.037  # TVD typed to 2 dp (I/A to 2 dp in #2/#3)
+
+
+def test_table_4_1_inclinations_from_ab_displacements():
+    """Thesis eqs 4.1-4.2 applied to the printed (cumulative) A/B displacements reproduce the I and Az
+    columns of table 4.1 (I to the printed 0.01 deg, which truncates: SS10 asin(11.75/200) = 3.368)."""
+    from nodesim.ground.wellpath import survey_angles_from_ab
+
+    b = np.array([0.1, 0.5, 0.75, 0.75, 1, 1.75, 2.75, 3, 2.25, 2]) / 100
+    a = np.array([-0.25, -1, -2, -3, -4.5, -5.75, -7.75, -9.25, -10.25, -11.75]) / 100
+    inc_printed = [0.08, 0.32, 0.61, 0.89, 1.32, 1.72, 2.35, 2.78, 3.00, 3.41]
+    az_printed = [248.20, 243.43, 249.44, 255.96, 257.47, 253.07, 250.46, 252.03, 257.62, 260.34]
+    inc, az = survey_angles_from_ab(a, b)
+    np.testing.assert_allclose(inc, inc_printed, atol=0.011)
+    np.testing.assert_allclose(az, az_printed, atol=0.006)
+    inc_inc, _ = survey_angles_from_ab(a, b, cumulative=False)
+    assert inc_inc.max() < 0.7  # increments over 2 m: at most 2.24 cm (SS7), i.e. 0.64 deg
+    with pytest.raises(NodesimError, match="larger than the course"):
+        survey_angles_from_ab([3.0], [0.0])
