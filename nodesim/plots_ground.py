@@ -16,6 +16,9 @@ from nodesim.ground.ellipsoid import horizontal_ellipse  # noqa: E402
 from nodesim.results import atomic_write_with  # noqa: E402
 
 
+MAX_ELLIPSES = 200
+
+
 def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> None:
     """Plan view (E, N) with the horizontal ellipses and the TVD band against MD, both at ``scale`` sigma."""
     p = u.path
@@ -23,7 +26,8 @@ def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> No
     sd_tvd = np.sqrt(np.clip(u.cov_nev_m2[:, 2, 2], 0.0, None))
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(11, 5))
     ax0.plot(p.e_m, p.n_m, "-o", ms=2.5, lw=1.0, color="tab:blue", label="wellpath")
-    for k in range(len(p.n_m)):
+    stride = max(1, len(p.n_m) // MAX_ELLIPSES)  # long wells: draw every stride-th ellipse and the last
+    for k in sorted(set(range(0, len(p.n_m), stride)) | {len(p.n_m) - 1}):
         if major[k] <= 0:
             continue
         # Ellipse angle is counter-clockwise from the x (east) axis; the major axis azimuth is clockwise from north

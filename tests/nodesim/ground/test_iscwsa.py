@@ -113,3 +113,25 @@ def test_derivatives_equal_workbook_drdp(well):
             ref = np.array([[np.nan if v is None else v for v in drdp[key + x][c]] for c in "nev"]).T
             rows = slice(1, -1) if key == "dr_k1_d" else slice(1, None)
             np.testing.assert_allclose(ours[x][rows], ref[rows], atol=1e-9)
+
+
+def test_unknown_error_code_in_a_well_file_is_a_clear_error(iscwsa_dir, tmp_path):
+    from nodesim.errors import NodesimError
+
+    raw = json.loads((iscwsa_dir / "iscwsa3_rev5.json").read_text())
+    raw["error_sources"][0]["code"] = "WOBBLE"
+    p = tmp_path / "w.json"
+    p.write_text(json.dumps(raw))
+    with pytest.raises(NodesimError, match="error code 'WOBBLE' has no weighting function"):
+        load_iscwsa(p)
+
+
+def test_bundled_compact_wells_equal_the_test_copies(iscwsa_dir):
+    """``nodesim validate`` uses compact copies under nodesim/data/iscwsa; they hold the same numbers."""
+    from nodesim.ground.iscwsa import bundled_well
+
+    for name in WELLS:
+        a, b = bundled_well(name), load_iscwsa(iscwsa_dir / f"{name}.json")
+        np.testing.assert_array_equal(a.survey.md_m, b.survey.md_m)
+        assert a.validation == b.validation
+        assert [s.as_dict() for s in a.model.sources] == [s.as_dict() for s in b.model.sources]
