@@ -20,7 +20,11 @@ def register(sub) -> None:
             "print the N/E/TVD uncertainties."
         ),
     )
-    p.add_argument("survey", metavar="SURVEY.csv", help="survey with columns md_m,inc_deg,azi_deg[,time_s]")
+    p.add_argument(
+        "survey",
+        metavar="SURVEY.csv",
+        help="survey with columns md_m,inc_deg,azi_deg and optional time_s, sigma_inc_deg, sigma_azi_deg (per-station 1-sigma errors added as random terms)",
+    )
     p.add_argument(
         "--tool", required=True, help="tool model: dip, vn100t, stim300, ipst_rqh, mpu6500, mpu6500_filtered, or a tool .toml"
     )
@@ -47,6 +51,7 @@ def run(args) -> int:
     survey = read_survey_csv(Path(args.survey), args.seconds_per_station)
     model = load_tool(args.tool)
     u = propagate(survey, model, method=args.method)
+    model = u.model  # includes the survey's own sigma columns, if any
     scale = confidence_scale(args.sigma, dof=1)
     sd = np.sqrt(np.clip(np.einsum("nii->ni", u.cov_nev_m2), 0.0, None))
     hla = nev_to_hla(u.cov_nev_m2, survey.inc_rad, survey.azi_rad)

@@ -74,7 +74,19 @@ def make_context(survey: Survey, path: Wellpath, model: ErrorModel, site: Site) 
         tortuosity_rad_per_m=site.tortuosity_rad_per_m,
         min_course_m=site.min_course_m,
         vertical_limit_rad=site.vertical_limit_deg * deg,
+        sigma_inc_rad=survey.sigma_inc_rad,
+        sigma_azi_rad=survey.sigma_azi_rad,
     )
+
+
+def with_survey_sigmas(survey: Survey, model: ErrorModel) -> ErrorModel:
+    """The model plus random direct terms for the survey's own per-station angle sigmas, if it has any."""
+    extra = []
+    if survey.sigma_inc_rad is not None:
+        extra.append(ErrorSource("SURVEY-INC", "SURVEY-INC", 1.0, "rad", "R", "per-station inclination sigma of the survey"))
+    if survey.sigma_azi_rad is not None:
+        extra.append(ErrorSource("SURVEY-AZ", "SURVEY-AZ", 1.0, "rad", "R", "per-station azimuth sigma of the survey"))
+    return model.with_sources(*extra) if extra else model
 
 
 def error_vectors(source: ErrorSource, ctx: Context, deriv) -> tuple[np.ndarray, np.ndarray]:
@@ -136,8 +148,12 @@ def propagate(
     method: str = "minimum_curvature",
     per_source: bool = False,
 ) -> Uncertainty:
-    """Wellpath and ISCWSA covariance at every station (1 sigma, N/E/V, m^2)."""
+    """Wellpath and ISCWSA covariance at every station (1 sigma, N/E/V, m^2).
+
+    A survey carrying per-station angle sigmas adds them as random terms (:func:`with_survey_sigmas`);
+    ``Uncertainty.model`` is the model actually used."""
     site = site or Site()
+    model = with_survey_sigmas(survey, model)
     path = wellpath(survey, method)
     ctx = make_context(survey, path, model, site)
     deriv = survey_derivatives(survey, surface_tie_on=model.surface_tie_on)

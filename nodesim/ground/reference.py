@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodesim.ground.covariance import Site, error_vectors, make_context
+from nodesim.ground.covariance import Site, error_vectors, make_context, with_survey_sigmas
 from nodesim.ground.derivatives import survey_derivatives
 from nodesim.ground.errormodel import ErrorModel
 from nodesim.ground.survey import Survey
@@ -16,6 +16,7 @@ from nodesim.ground.wellpath import wellpath
 def propagate_pairwise(survey: Survey, model: ErrorModel, site: Site | None = None, method: str = "minimum_curvature") -> np.ndarray:
     """Total NEV covariance (n, 3, 3) by explicit sums over the stations above each station."""
     site = site or Site()
+    model = with_survey_sigmas(survey, model)
     path = wellpath(survey, method)
     ctx = make_context(survey, path, model, site)
     deriv = survey_derivatives(survey, surface_tie_on=model.surface_tie_on)

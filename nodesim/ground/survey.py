@@ -3,7 +3,11 @@
 A :class:`Survey` holds SI arrays (metres, radians, seconds).  :func:`make_survey` checks the input
 (finite values, strictly increasing MD, inclination in [0, 180] deg, azimuth finite) and names the
 offending row; :func:`read_survey_csv` reads the CSV form used by ``nodesim uncertainty`` (columns
-``md_m,inc_deg,azi_deg`` and optionally ``time_s``).
+``md_m,inc_deg,azi_deg`` and optionally ``time_s``, ``sigma_inc_deg``, ``sigma_azi_deg``).
+
+The optional per-station 1-sigma angle errors are how a simulated filter (or the station fusion) feeds its
+own inclination/azimuth uncertainty into the ISCWSA model: :func:`nodesim.ground.covariance.propagate`
+adds them as random direct terms (codes ``SURVEY-INC`` and ``SURVEY-AZ``).
 """
 
 from __future__ import annotations
@@ -31,12 +35,23 @@ class Survey:
     inc_rad: np.ndarray
     azi_rad: np.ndarray
     time_s: np.ndarray
+    sigma_inc_rad: np.ndarray | None = None
+    sigma_azi_rad: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.md_m.size)
 
 
-def make_survey(md_m, inc_deg, azi_deg, time_s=None, seconds_per_station: float = 60.0, where: str = "survey") -> Survey:
+def make_survey(
+    md_m,
+    inc_deg,
+    azi_deg,
+    time_s=None,
+    seconds_per_station: float = 60.0,
+    where: str = "survey",
+    sigma_inc_deg=None,
+    sigma_azi_deg=None,
+) -> Survey:
     """Validate and convert a survey given in degrees.
 
     ``time_s`` defaults to ``seconds_per_station * k`` for station k (thesis 4.1.3: 60 s between stations).
@@ -75,14 +90,27 @@ def make_survey(md_m, inc_deg, azi_deg, time_s=None, seconds_per_station: float 
     bad = np.flatnonzero(np.diff(t) < 0)
     if bad.size:
         raise NodesimError(f"{where}: row {bad[0] + 2}: time_s decreases ({t[bad[0] + 1]:g} after {t[bad[0]]:g})")
-    return Survey(md, inc * DEG, np.remainder(azi, 360.0) * DEG, t)
+    sigmas = []
+    for name, arr in (("sigma_inc_deg", sigma_inc_deg), ("sigma_azi_deg", sigma_azi_deg)):
+        if arr is None:
+            sigmas.append(None)
+            continue
+        a = np.asarray(arr, dtype=float).ravel()
+        if a.size != md.size:
+            raise NodesimError(f"{where}: {name} has {a.size} values for {md.size} stations")
+        bad = np.flatnonzero(~np.isfinite(a) | (a < 0))
+        if bad.size:
+            raise NodesimError(f"{where}: row {bad[0] + 1}: {name} {a[bad[0]]:g} must be finite and >= 0")
+        sigmas.append(a * DEG)
+    return Survey(md, inc * DEG, np.remainder(azi, 360.0) * DEG, t, sigmas[0], sigmas[1])
 
 
 REQUIRED_COLUMNS = ("md_m", "inc_deg", "azi_deg")
 
 
 def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
-    """Read a survey CSV (header ``md_m,inc_deg,azi_deg[,time_s]``); errors name the file, row and column."""
+    """Read a survey CSV (header ``md_m,inc_deg,azi_deg`` plus optional ``time_s``, ``sigma_inc_deg``,
+    ``sigma_azi_deg``); errors name the file, row and column."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -104,5 +132,13 @@ def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
                 cols[name].append(float(value))
             except ValueError:
                 raise NodesimError(f"{path}: row {i}: column {name}: '{value.strip()}' is not a number") from None
-    time = cols.get("time_s")
-    return make_survey(cols["md_m"], cols["inc_deg"], cols["azi_deg"], time, seconds_per_station, where=str(path))
+    return make_survey(
+        cols["md_m"],
+        cols["inc_deg"],
+        cols["azi_deg"],
+        cols.get("time_s"),
+        seconds_per_station,
+        where=str(path),
+        sigma_inc_deg=cols.get("sigma_inc_deg"),
+        sigma_azi_deg=cols.get("sigma_azi_deg"),
+    )

@@ -43,6 +43,8 @@ class Context:
     tortuosity_rad_per_m: float = 0.000572614583987641  # 1 deg / 100 ft (ISCWSA Rev 5 XCL)
     min_course_m: float = 10.0  # XYM3E/XYM4E short-course scaling (Rev 5.1)
     vertical_limit_rad: float = 1e-4 * np.pi / 180.0
+    sigma_inc_rad: np.ndarray | None = None  # per-station 1-sigma survey errors (filter / fusion output)
+    sigma_azi_rad: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -211,6 +213,14 @@ def inc(c):  # direct inclination error (thesis 4.1.2 first-principles route)
     return _w(c, i=1.0)
 
 
+def survey_inc(c):  # per-station inclination sigma carried by the survey (magnitude 1 rad)
+    return _w(c, i=0.0 if c.sigma_inc_rad is None else c.sigma_inc_rad)
+
+
+def survey_az(c):  # per-station azimuth sigma carried by the survey, e.g. a simulated filter's
+    return _w(c, a=0.0 if c.sigma_azi_rad is None else c.sigma_azi_rad)
+
+
 # ---- alignment -----------------------------------------------------------------------------------
 def sage(c):
     return _w(c, i=np.sin(c.inc_rad) ** 0.25)
@@ -284,7 +294,7 @@ WEIGHTING: dict[str, Callable[[Context], Weights]] = {
     "ASXY-TI1": asxy_ti1, "ASXY-TI2": asxy_ti2, "ASXY-TI3": asxy_ti3, "ASZ": asz,
     "MBXY-TI1": mbxy_ti1, "MBXY-TI2": mbxy_ti2, "MBZ": mbz,
     "MSXY-TI1": msxy_ti1, "MSXY-TI2": msxy_ti2, "MSXY-TI3": msxy_ti3, "MSZ": msz,
-    "AZ": az, "INC": inc, "DBH": dbh, "AMIL": amil,
+    "AZ": az, "INC": inc, "SURVEY-INC": survey_inc, "SURVEY-AZ": survey_az, "DBH": dbh, "AMIL": amil,
     "SAGE": sage, "XYM1": xym1, "XYM2": xym2, "XYM3": xym3, "XYM4": xym4, "XYM3E": xym3e, "XYM4E": xym4e,
     "XCLA": xcla, "XCLH": xclh,
     "GYRO-DRIFT": gyro_drift, "GYRO-RW": gyro_random_walk,

@@ -75,3 +75,11 @@ def test_console_script_json_only_on_stdout():
     )  # fmt: skip
     assert proc.returncode == 0
     json.loads(proc.stdout)
+
+
+def test_sigma_columns_become_sources(tmp_path, capsys):
+    p = tmp_path / "s.csv"
+    p.write_text("md_m,inc_deg,azi_deg,sigma_azi_deg\n0,0,0,0\n10,5,45,0.25\n20,10,45,0.25\n")
+    assert main(["uncertainty", str(p), "--tool", "mpu6500_filtered", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert "SURVEY-AZ" in {s["code"] for s in data["sources"]}

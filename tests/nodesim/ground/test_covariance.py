@@ -159,3 +159,24 @@ def test_unknown_weight_propagation_or_unit_are_clear_errors():
 
 def test_site_defaults_are_iscwsa_gravity():
     assert Site().gravity_m_s2 == 9.80665
+
+
+def test_survey_sigmas_enter_as_random_direct_terms():
+    """A simulated filter's per-station azimuth sigma (thesis 4.2.4: 0.25 deg) carried by the survey gives
+    the same covariance as an explicit random AZ term of that magnitude; varying sigmas match the
+    station-pair sums."""
+    md, inc, azi = [0, 20, 40, 60, 80], [0, 5, 10, 15, 20], [0, 30, 35, 40, 45]
+    with_col = make_survey(md, inc, azi, sigma_azi_deg=[0.25] * 5, sigma_inc_deg=[0.01] * 5)
+    plain = make_survey(md, inc, azi)
+    explicit = ErrorModel("e", (ErrorSource("A", "AZ", 0.25, "deg", "R"), ErrorSource("I", "INC", 0.01, "deg", "R")))
+    u = propagate(with_col, ErrorModel("none", ()))
+    assert {s.code for s in u.model.sources} == {"SURVEY-INC", "SURVEY-AZ"}
+    np.testing.assert_allclose(u.cov_nev_m2, propagate(plain, explicit).cov_nev_m2, rtol=1e-12)
+    varying = make_survey(md, inc, azi, sigma_azi_deg=[0, 0.1, 0.5, 1.0, 0.2])
+    np.testing.assert_allclose(
+        propagate(varying, ErrorModel("none", ())).cov_nev_m2, propagate_pairwise(varying, ErrorModel("none", ())), rtol=1e-12
+    )
+    with pytest.raises(NodesimError, match="row 2: sigma_azi_deg -1 must be finite and >= 0"):
+        make_survey(md, inc, azi, sigma_azi_deg=[0, -1, 0, 0, 0])
+    with pytest.raises(NodesimError, match="sigma_inc_deg has 2 values for 5 stations"):
+        make_survey(md, inc, azi, sigma_inc_deg=[0, 1])
