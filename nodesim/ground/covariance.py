@@ -24,7 +24,7 @@ import numpy as np
 from nodesim.ground.derivatives import survey_derivatives
 from nodesim.ground.errormodel import ErrorModel, ErrorSource
 from nodesim.ground.survey import Survey
-from nodesim.ground.weighting import Context, Weights
+from nodesim.ground.weighting import Context, Weights, weighting
 from nodesim.ground.wellpath import Wellpath, wellpath
 
 
@@ -91,8 +91,6 @@ def with_survey_sigmas(survey: Survey, model: ErrorModel) -> ErrorModel:
 
 def error_vectors(source: ErrorSource, ctx: Context, deriv) -> tuple[np.ndarray, np.ndarray]:
     """(e, e*) of one source, each (n, 3) in m (weighting function times derivatives times magnitude)."""
-    from nodesim.ground.weighting import weighting
-
     wts: Weights = weighting(source.weight)(ctx)
     sigma = source.value
     if wts.direct is not None:

@@ -125,7 +125,7 @@ def dst(c):  # depth stretch (ISCWSA): MD * TVD, magnitude per metre
 
 # ---- accelerometers (toolface-independent forms, SPE-67616 table 1 + SPE-63275) -----------------
 def abxy_ti1(c):
-    ci, si = np.cos(c.inc_rad), np.sin(c.inc_rad)
+    ci = np.cos(c.inc_rad)
     return _w(c, i=-ci / c.gravity_m_s2, a=c.tan_dip * ci * np.sin(c.azm_rad) / c.gravity_m_s2)
 
 
