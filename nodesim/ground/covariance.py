@@ -89,8 +89,11 @@ def with_survey_sigmas(survey: Survey, model: ErrorModel) -> ErrorModel:
     return model.with_sources(*extra) if extra else model
 
 
-def error_vectors(source: ErrorSource, ctx: Context, deriv) -> tuple[np.ndarray, np.ndarray]:
-    """(e, e*) of one source, each (n, 3) in m (weighting function times derivatives times magnitude)."""
+def error_vectors(source: ErrorSource, ctx: Context, deriv, stacks=None) -> tuple[np.ndarray, np.ndarray]:
+    """(e, e*) of one source, each (n, 3) in m (weighting function times derivatives times magnitude).
+
+    ``stacks`` = (deriv.k_stack, deriv.sum_stack), precomputed once per survey when many sources share it."""
+    stacks = stacks if stacks is not None else (deriv.k_stack, deriv.sum_stack)
     wts: Weights = weighting(source.weight)(ctx)
     sigma = source.value
     if wts.direct is not None:
@@ -98,12 +101,8 @@ def error_vectors(source: ErrorSource, ctx: Context, deriv) -> tuple[np.ndarray,
         e[0] = 0.0
         return e, e
     w = wts.w
-    e = np.zeros((ctx.n, 3))
-    e_star = np.zeros((ctx.n, 3))
-    for j, x in enumerate("DIA"):
-        wx = w[:, j][:, None]
-        e += wx * (deriv.d_k[x] + deriv.d_k1[x])
-        e_star += wx * deriv.d_k[x]
+    e = np.einsum("nx,nxj->nj", w, stacks[1])
+    e_star = np.einsum("nx,nxj->nj", w, stacks[0])
     if wts.sing is not None:
         vert = ctx.vertical
         if vert.any():
@@ -159,7 +158,8 @@ def propagate(
     if not model.sources:
         zeros = np.zeros((n, 3, 3))
         return Uncertainty(path, model, zeros, np.zeros((0, n, 3, 3)) if per_source else None)
-    vecs = [error_vectors(s, ctx, deriv) for s in model.sources]
+    stacks = (deriv.k_stack, deriv.sum_stack)
+    vecs = [error_vectors(s, ctx, deriv, stacks) for s in model.sources]
     e = np.stack([v[0] for v in vecs])
     e_star = np.stack([v[1] for v in vecs])
     rand = np.array([s.random for s in model.sources])

@@ -42,6 +42,16 @@ class Derivatives:
     dt_di: np.ndarray
     dt_da: np.ndarray
 
+    @property
+    def k_stack(self) -> np.ndarray:
+        """(n, 3, 3): [station, measurement D/I/A, N/E/V] of d dr_k / dp_k (the e* matrix)."""
+        return np.stack([self.d_k[x] for x in "DIA"], axis=1)
+
+    @property
+    def sum_stack(self) -> np.ndarray:
+        """(n, 3, 3): d dr_k / dp_k + d dr_{k+1} / dp_k (the e matrix)."""
+        return np.stack([self.d_k[x] + self.d_k1[x] for x in "DIA"], axis=1)
+
 
 def survey_derivatives(survey: Survey, surface_tie_on: bool = False) -> Derivatives:
     n = len(survey)

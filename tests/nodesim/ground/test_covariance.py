@@ -37,9 +37,10 @@ def test_running_sums_equal_station_pair_sums(parts, tool):
     model = load_tool(tool)
     fast = propagate(s, model).cov_nev_m2
     slow = propagate_pairwise(s, model)
-    np.testing.assert_allclose(fast, slow, rtol=1e-10, atol=1e-18)
+    atol = 1e-12 * max(np.abs(slow).max(), 1e-30)  # round-off of a different summation order
+    np.testing.assert_allclose(fast, slow, rtol=1e-10, atol=atol)
     # and the per-source path adds up to the same total
-    np.testing.assert_allclose(propagate(s, model, per_source=True).cov_nev_m2, fast, rtol=1e-10, atol=1e-18)
+    np.testing.assert_allclose(propagate(s, model, per_source=True).cov_nev_m2, fast, rtol=1e-10, atol=atol)
 
 
 @settings(max_examples=25, deadline=None)
