@@ -20,7 +20,7 @@ import numpy as np
 import simpy
 
 from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
-from firmware_model.yaw_filter import FloatYawFilter, YawFilterConfig
+from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
 from nodesim.errors import NodesimError
 from nodesim.kinematics import LabRotationProfile
 from nodesim.rng import RunStreams
@@ -152,7 +152,9 @@ def simulate_lab(scenario: Scenario) -> LabRun:
             kf = state["filter"]
             if kf is None:
                 b0 = state["bias_sum"] / max(state["bias_n"], 1)
-                kf = state["filter"] = FloatYawFilter(config, R, initial_yaw_rad=out_yaw[:, k - 1], bias_offset_rad_s=b0)
+                kf = state["filter"] = make_yaw_filter(
+                    f.implementation, config, R, initial_yaw_rad=out_yaw[:, k - 1], bias_offset_rad_s=b0
+                )
             kf.predict(gyro_meas[:, k])
             if scheduled[k]:
                 yield env.timeout(delay)  # request leg
