@@ -40,6 +40,13 @@ def operands(draw, fmt: QFormat):
     return np.array(values, dtype=np.int64)
 
 
+def oracle_can_shift(exact_bits: int, left_shift: int) -> bool:
+    """apytypes 0.5.1 mis-saturates a cast whose left-shifted value needs more than 63 bits
+    (2**23 in 25 bits cast to 2 bits with 40 fraction bits saturates to the minimum, with 41 to zero),
+    so the oracle is consulted only where the shifted exact value fits 63 bits."""
+    return exact_bits + max(0, left_shift) <= 63
+
+
 def oracle(raw, fmt):
     return apy.APyFixedArray(np.asarray(raw, dtype=np.int64), bits=fmt.word_bits, frac_bits=fmt.frac_bits)
 
@@ -69,6 +76,7 @@ def n_overflowed(exact: apy.APyFixedArray, out: QFormat, rounding: Rounding) -> 
 @given(st.data(), formats, formats, roundings, overflows)
 def test_convert_matches_apytypes(data, fin, out, rounding, overflow):
     assume(abs(fin.frac_bits - out.frac_bits) <= 40)
+    assume(oracle_can_shift(fin.word_bits, out.frac_bits - fin.frac_bits))
     raw = data.draw(operands(fin))
     counter = fp.OverflowCounter()
     ours = fp.convert(Fx(raw, fin), out, rounding, overflow, counter, "c")
@@ -82,6 +90,11 @@ def test_add_sub_mul_match_apytypes(data, fa, fb, out, rounding, overflow, op):
     assume(abs(fa.frac_bits - fb.frac_bits) <= 31)
     f_exact = max(fa.frac_bits, fb.frac_bits) if op != "mul" else fa.frac_bits + fb.frac_bits
     assume(-40 <= f_exact - out.frac_bits <= 62)
+    if op == "mul":
+        exact_bits = fa.word_bits + fb.word_bits
+    else:
+        exact_bits = max(fa.word_bits + f_exact - fa.frac_bits, fb.word_bits + f_exact - fb.frac_bits) + 1
+    assume(oracle_can_shift(exact_bits, out.frac_bits - f_exact))
     a, b = data.draw(operands(fa)), data.draw(operands(fb))
     counter = fp.OverflowCounter()
     ours = getattr(fp, op)(Fx(a, fa), Fx(b, fb), out, rounding, overflow, counter, op)
@@ -113,6 +126,7 @@ def test_div_matches_apytypes(data, fa, fb, out, rounding, overflow):
 @given(st.data(), formats, st.integers(-20, 20), roundings, overflows)
 def test_shift_matches_apytypes(data, fmt, n, rounding, overflow):
     assume(-31 <= fmt.frac_bits - n <= 62)
+    assume(oracle_can_shift(fmt.word_bits, n))
     raw = data.draw(operands(fmt))
     ours = fp.shift(Fx(raw, fmt), n, rounding, overflow)
     moved = apy.APyFixedArray(raw, bits=fmt.word_bits, frac_bits=fmt.frac_bits - n)  # same bits, value * 2**n
