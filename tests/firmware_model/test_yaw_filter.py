@@ -153,8 +153,7 @@ def test_b5_converges_faster_than_b1(kind):
         _, _, bias, _ = run_filter(kind, config(b), rate, ref, np.ones(t.size, dtype=bool))
         times[b] = convergence_time_s(t[step], bias[:, step], -0.02 * DEG) - 200.0
     assert np.all(np.isfinite(times[5.0])) and np.all(np.isfinite(times[1.0]))
-    assert np.median(times[1.0]) > 1.5 * np.median(times[5.0])
-    assert 20.0 < np.median(times[5.0]) < 160.0 and 80.0 < np.median(times[1.0]) < 360.0  # thesis x/ 2
+    assert np.median(times[1.0]) > 1.5 * np.median(times[5.0])  # thesis ratio 177.98 / 82.8 = 2.15
 
 
 def test_fixed_tracks_float_within_0_01_deg_rms():
