@@ -147,24 +147,41 @@ def _overflow(x: np.ndarray, fmt: QFormat, overflow: Overflow, counter, site: st
     return x
 
 
+_SCRATCH: dict[tuple, np.ndarray] = {}
+
+
+def _scratch_like(x: np.ndarray) -> np.ndarray:
+    """A reusable int64 work array of ``x``'s shape (one kept at a time).  Allocating a fresh large
+    temporary per primitive costs page faults that dominate the arithmetic on 1e5-element arrays."""
+    buf = _SCRATCH.get(x.shape)
+    if buf is None:
+        _SCRATCH.clear()
+        buf = _SCRATCH[x.shape] = np.empty(x.shape, dtype=np.int64)
+    return buf
+
+
 def _round_shift_right(x: np.ndarray, s: int, rounding: Rounding) -> np.ndarray:
-    """Divide int64 ``x`` by 2**s (s >= 1) with the rounding mode; returns a new array."""
+    """Divide int64 ``x`` by 2**s (s >= 1) with the rounding mode, in place (``x`` must be owned)."""
     if s > MAX_SHIFT:
         raise FirmwareError(f"right shift by {s} bits: allowed 0..{MAX_SHIFT}")
     if rounding is Rounding.FLOOR:
-        return x >> s
-    mask = (1 << s) - 1
+        x >>= s
+        return x
     if rounding is Rounding.TOWARD_ZERO:
-        return (x + ((x >> 63) & mask)) >> s
-    half = 1 << (s - 1)
-    if rounding is Rounding.HALF_UP:
-        return (x + half) >> s
-    if rounding is Rounding.HALF_EVEN:
-        q = x >> s
-        r = x & mask
-        q += (r > half) | ((r == half) & (q & 1).astype(bool))
-        return q
-    raise FirmwareError(f"rounding = {rounding!r}: allowed {[m.value for m in Rounding]}")
+        t = np.right_shift(x, 63, out=_scratch_like(x))
+        t &= (1 << s) - 1
+    elif rounding is Rounding.HALF_UP:
+        t = (1 << (s - 1))
+    elif rounding is Rounding.HALF_EVEN:
+        # (x + h - 1 + ((x >> s) & 1)) >> s: rounds up iff the remainder exceeds h, or equals h with q odd
+        t = np.right_shift(x, s, out=_scratch_like(x))
+        t &= 1
+        t += (1 << (s - 1)) - 1
+    else:
+        raise FirmwareError(f"rounding = {rounding!r}: allowed {[m.value for m in Rounding]}")
+    x += t
+    x >>= s
+    return x
 
 
 def requantize(
@@ -177,8 +194,12 @@ def requantize(
     site: str = "requantize",
 ) -> Fx:
     """Convert int64 ``raw`` with ``frac_in`` fraction bits to format ``out`` (C: ``sat(round(x, s))``)."""
-    rounding, overflow = Rounding(rounding), Overflow(overflow)
-    x = _as_raw(raw)
+    return _requantize(np.array(raw, dtype=np.int64), frac_in, out, Rounding(rounding), Overflow(overflow), counter, site)
+
+
+def _requantize(x: np.ndarray, frac_in: int, out: QFormat, rounding: Rounding, overflow: Overflow, counter, site: str) -> Fx:
+    """:func:`requantize` on an int64 array the caller owns (modified in place)."""
+    x = np.asarray(x)
     s = frac_in - out.frac_bits
     if s > 0:
         x = _round_shift_right(x, s, rounding)
@@ -199,8 +220,6 @@ def requantize(
             x = (x & ((1 << (out.word_bits - ls)) - 1)) << ls  # the low bits that survive, mod 2**W
             x -= (x >> (out.word_bits - 1)) << out.word_bits
         return Fx(x, out)
-    else:
-        x = x.copy()
     return Fx(_overflow(x, out, overflow, counter, site), out)
 
 
@@ -225,18 +244,19 @@ def _align(a: Fx, b: Fx) -> tuple[np.ndarray, np.ndarray, int]:
 def add(a: Fx, b: Fx, out: QFormat, rounding=Rounding.HALF_EVEN, overflow=Overflow.SATURATE, counter=None, site="add") -> Fx:
     """a + b (C: ``sat(round(((int64_t)a << sa) + ((int64_t)b << sb), s))``)."""
     xa, xb, f = _align(a, b)
-    return requantize(xa + xb, f, out, rounding, overflow, counter, site)
+    return _requantize(np.add(xa, xb), f, out, Rounding(rounding), Overflow(overflow), counter, site)
 
 
 def sub(a: Fx, b: Fx, out: QFormat, rounding=Rounding.HALF_EVEN, overflow=Overflow.SATURATE, counter=None, site="sub") -> Fx:
     """a - b (C: ``sat(round(((int64_t)a << sa) - ((int64_t)b << sb), s))``)."""
     xa, xb, f = _align(a, b)
-    return requantize(xa - xb, f, out, rounding, overflow, counter, site)
+    return _requantize(np.subtract(xa, xb), f, out, Rounding(rounding), Overflow(overflow), counter, site)
 
 
 def mul(a: Fx, b: Fx, out: QFormat, rounding=Rounding.HALF_EVEN, overflow=Overflow.SATURATE, counter=None, site="mul") -> Fx:
     """a * b (C: ``sat(round((int64_t)a * b, Fa + Fb - F))``; the 64-bit product is exact)."""
-    return requantize(_as_raw(a.raw) * _as_raw(b.raw), a.fmt.frac_bits + b.fmt.frac_bits, out, rounding, overflow, counter, site)
+    p = np.multiply(_as_raw(a.raw), _as_raw(b.raw))
+    return _requantize(p, a.fmt.frac_bits + b.fmt.frac_bits, out, Rounding(rounding), Overflow(overflow), counter, site)
 
 
 def div(a: Fx, b: Fx, out: QFormat, rounding=Rounding.HALF_EVEN, overflow=Overflow.SATURATE, counter=None, site="div") -> Fx:
