@@ -154,18 +154,23 @@ class YawFilter(ABC):
 
 
 class FloatYawFilter(YawFilter):
-    """R independent 2-state yaw filters in float64 (arrays of shape (R,) and (R, 2, 2))."""
+    """R independent 2-state yaw filters in float64.  P is symmetric and kept as its three distinct
+    elements (R,) each; Phi P Phi^T and (I - K H) P are written out element by element (same algebra as
+    the matrix form checked against filterpy, without batched 2x2 matrix products)."""
 
     def __init__(self, config: YawFilterConfig, realizations: int, initial_yaw_rad=0.0, bias_offset_rad_s=0.0):
         if not (isinstance(realizations, (int, np.integer)) and realizations >= 1):
             raise FirmwareError(f"realizations = {realizations!r}: allowed integers >= 1")
         self.config = config
-        self.realizations = int(realizations)
-        self.phi = config.phi
-        self.q_d = config.q_d
-        self._yaw = batch_arg("initial_yaw_rad", check_finite("initial_yaw_rad", initial_yaw_rad), realizations).copy()
-        self._bias = batch_arg("bias_offset_rad_s", check_finite("bias_offset_rad_s", bias_offset_rad_s), realizations).copy()
-        self.p = np.broadcast_to(config.p0, (realizations, 2, 2)).copy()
+        self.realizations = R = int(realizations)
+        self._yaw = batch_arg("initial_yaw_rad", check_finite("initial_yaw_rad", initial_yaw_rad), R).copy()
+        self._bias = batch_arg("bias_offset_rad_s", check_finite("bias_offset_rad_s", bias_offset_rad_s), R).copy()
+        p0 = config.p0
+        self.p_yy, self.p_yb, self.p_bb = np.full(R, p0[0, 0]), np.full(R, p0[0, 1]), np.full(R, p0[1, 1])
+        dt = config.dt_s
+        f = 1.0 - dt / config.bias_tau_s
+        q = config.q_d
+        self._c = (2.0 * dt, dt * dt, q[0, 0], dt, f, f * f, q[1, 1])
 
     @property
     def yaw_rad(self) -> np.ndarray:
@@ -177,12 +182,20 @@ class FloatYawFilter(YawFilter):
 
     @property
     def covariance(self) -> np.ndarray:
-        return self.p
+        return np.stack([np.stack([self.p_yy, self.p_yb], -1), np.stack([self.p_yb, self.p_bb], -1)], -2)
+
+    @property
+    def yaw_variance_rad2(self) -> np.ndarray:
+        return self.p_yy
 
     def predict(self, measured_rate_rad_s) -> None:
         rate = batch_arg("gyro rate", check_finite("gyro rate", measured_rate_rad_s), self.realizations)
         self._yaw = self._yaw + self.config.dt_s * (rate - self._bias)
-        self.p = self.phi @ self.p @ self.phi.T + self.q_d
+        two_dt, dt2, q_y, dt, f, f2, q_b = self._c
+        yy, yb, bb = self.p_yy, self.p_yb, self.p_bb
+        self.p_yy = yy + two_dt * yb + dt2 * bb + q_y  # Phi P Phi^T + Q_d, Phi = [[1, dt], [0, f]]
+        self.p_yb = f * (yb + dt * bb)
+        self.p_bb = f2 * bb + q_b
 
     def update(self, reference_yaw_rad, reference_variance_rad2, mask=None) -> None:
         ref = batch_arg("reference yaw", check_finite("reference yaw", reference_yaw_rad), self.realizations)
@@ -190,16 +203,14 @@ class FloatYawFilter(YawFilter):
         if np.any(r < 0):
             raise FirmwareError("reference variance: negative value; allowed >= 0 (rad^2)")
         innovation = wrap_pi(self._yaw - ref)
-        s = self.p[:, 0, 0] + r
-        gain = self.p[:, :, 0] / s[:, None]  # (R, 2)
-        gain = np.where(self._mask(mask)[:, None], gain, 0.0)
-        dx = gain * innovation[:, None]
-        self._yaw = self._yaw - dx[:, 0]
-        self._bias = self._bias + dx[:, 1]
-        kh = np.zeros_like(self.p)
-        kh[:, :, 0] = gain
-        p = self.p - kh @ self.p
-        self.p = 0.5 * (p + np.swapaxes(p, 1, 2))
+        yy, yb, bb = self.p_yy, self.p_yb, self.p_bb
+        inv_s = np.where(self._mask(mask), 1.0 / (yy + r), 0.0)  # K = 0 where no reference arrived
+        k_y, k_b = yy * inv_s, yb * inv_s
+        self._yaw = self._yaw - k_y * innovation
+        self._bias = self._bias + k_b * innovation
+        self.p_yy = yy - k_y * yy  # (I - K H) P, symmetric: K_b P_yy = K_y P_yb
+        self.p_yb = yb - k_y * yb
+        self.p_bb = bb - k_b * yb
 
 
 IMPLEMENTATIONS = ("float", "fixed")

@@ -91,7 +91,7 @@ def test_float_filter_matches_filterpy_step_by_step():
                 bias += kf.x[1, 0]
                 kf.x[:] = 0.0
             refs[r][1:] = [yaw, bias]
-            np.testing.assert_allclose(ours.p[r], kf.P, rtol=1e-9, atol=1e-18)
+            np.testing.assert_allclose(ours.covariance[r], kf.P, rtol=1e-9, atol=1e-18)
         np.testing.assert_allclose(ours.yaw_rad, [x[1] for x in refs], rtol=0, atol=1e-12)
         np.testing.assert_allclose(ours.bias_rad_s, [x[2] for x in refs], rtol=0, atol=1e-15)
 
