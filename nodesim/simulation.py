@@ -14,7 +14,7 @@ second delay; it is brought back to t_k with the rate the encoder sends: psi_ref
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import simpy
@@ -48,6 +48,7 @@ class LabRun:
     filter_start_s: float
     rotation_end_s: float
     simpy_events: int
+    firmware_overflows: dict = field(default_factory=dict)  # fixed-point saturations per site (fixed filter)
 
 
 def lab_profile(scenario: Scenario) -> LabRotationProfile:
@@ -190,4 +191,5 @@ def simulate_lab(scenario: Scenario) -> LabRun:
         filter_start_s=filter_start_s,
         rotation_end_s=profile.rotation_end_s,
         simpy_events=state["events"],
+        firmware_overflows=state["filter"].overflow_counts if state["filter"] is not None else {},
     )
