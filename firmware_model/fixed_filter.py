@@ -29,7 +29,7 @@ import numpy as np
 from firmware_model import fixedpoint as fp
 from firmware_model.errors import FirmwareError
 from firmware_model.fixedpoint import FixedContext, Fx, Overflow, QFormat, Rounding
-from firmware_model.yaw_filter import YawFilter, YawFilterConfig, batch_arg, check_finite
+from firmware_model.yaw_filter import YawFilter, YawFilterConfig, batch_arg, check_finite, check_realizations
 
 RAD_TO_DEG = 180.0 / math.pi
 TURN_RAD = 2.0 * math.pi
@@ -75,10 +75,8 @@ class FixedYawFilter(YawFilter):
         bias_offset_rad_s=0.0,
         formats: FixedFormats | None = None,
     ):
-        if not (isinstance(realizations, (int, np.integer)) and realizations >= 1):
-            raise FirmwareError(f"realizations = {realizations!r}: allowed integers >= 1")
         self.config = config
-        self.realizations = R = int(realizations)
+        self.realizations = R = check_realizations(realizations)
         self.formats = f = formats or FixedFormats()
         self.ctx = FixedContext(f.rounding, f.overflow)
         dt = config.dt_s

@@ -96,6 +96,13 @@ def batch_arg(name: str, x, realizations: int, dtype=float) -> np.ndarray:
         raise FirmwareError(f"{name}: shape {x.shape} does not fit {realizations} realizations (allowed: () or ({realizations},))") from None
 
 
+def check_realizations(realizations) -> int:
+    """The batch size R of a filter: an integer >= 1."""
+    if not (isinstance(realizations, (int, np.integer)) and not isinstance(realizations, bool) and realizations >= 1):
+        raise FirmwareError(f"realizations = {realizations!r}: allowed integers >= 1")
+    return int(realizations)
+
+
 def advance_reference(yaw_rad, rate_rad_s, delay_s):
     """Delay-compensated reference (thesis eq 3.29): psi_ref = psi_hat_prev + rate * dt_transfer."""
     if np.any(np.asarray(delay_s) < 0):
@@ -159,10 +166,8 @@ class FloatYawFilter(YawFilter):
     the matrix form checked against filterpy, without batched 2x2 matrix products)."""
 
     def __init__(self, config: YawFilterConfig, realizations: int, initial_yaw_rad=0.0, bias_offset_rad_s=0.0):
-        if not (isinstance(realizations, (int, np.integer)) and realizations >= 1):
-            raise FirmwareError(f"realizations = {realizations!r}: allowed integers >= 1")
         self.config = config
-        self.realizations = R = int(realizations)
+        self.realizations = R = check_realizations(realizations)
         self._yaw = batch_arg("initial_yaw_rad", check_finite("initial_yaw_rad", initial_yaw_rad), R).copy()
         self._bias = batch_arg("bias_offset_rad_s", check_finite("bias_offset_rad_s", bias_offset_rad_s), R).copy()
         p0 = config.p0
