@@ -64,6 +64,20 @@ def const(value: float, word_bits: int = 32, site: str = "constant") -> Fx:
     return fp.from_float(value, QFormat(word_bits, frac), site=site)
 
 
+def _advance(yaw: Fx, rate: Fx, k_turns: Fx, ctx: FixedContext, site: str) -> Fx:
+    """yaw + rate * k (C: ``yaw + (int32_t)round((int64_t)rate * K, s)``, the binary angle wraps)."""
+    inc = ctx.mul(rate, k_turns, yaw.fmt, site)
+    return fp.add(yaw, inc, yaw.fmt, ctx.rounding, Overflow.WRAP)
+
+
+def advance_binary_angle(yaw: Fx, rate: Fx, delay_s: float, ctx: FixedContext) -> Fx:
+    """Eq 3.29 in fixed point: the previous node's binary-angle estimate advanced by its rate (deg/s) times
+    the transfer delay, psi_ref = psi_prev + rate * dt_n, with dt_n / 360 a compile-time-style constant."""
+    if not (math.isfinite(delay_s) and delay_s >= 0):
+        raise FirmwareError(f"delay_s = {delay_s}: allowed finite values >= 0")
+    return _advance(yaw, rate, const(delay_s / 360.0, site="delay/360"), ctx, "reference advance")
+
+
 class FixedYawFilter(YawFilter):
     """R independent yaw filters in fixed point; raw int64 arrays of shape (R,)."""
 
@@ -139,8 +153,7 @@ class FixedYawFilter(YawFilter):
         """Time update with the gyro rate already in fixed point (deg/s)."""
         c, f = self.ctx, self.formats
         d = c.sub(rate, self.bias, f.rate, "rate - bias")
-        inc = c.mul(d, self.k_turns, f.yaw, "yaw increment")
-        self.yaw = fp.add(self.yaw, inc, f.yaw, f.rounding, Overflow.WRAP)  # binary angle: wraps by design
+        self.yaw = _advance(self.yaw, d, self.k_turns, c, "yaw increment")  # binary angle: wraps by design
         p_yy = c.add(self.p_yy, c.mul(self.p_yb, self.c_2dt, f.p_yy, "2 dt P_yb"), f.p_yy, "P_yy predict")
         p_yy = c.add(p_yy, c.mul(self.p_bb, self.c_dt2, f.p_yy, "dt^2 P_bb"), f.p_yy, "P_yy predict")
         p_yy = c.add(p_yy, self.q_yy, f.p_yy, "P_yy predict")

@@ -234,3 +234,42 @@ def test_bad_shapes_and_kinds_are_rejected():
         make_yaw_filter("double", config(), 3)
     with pytest.raises(FirmwareError, match="realizations"):
         make_yaw_filter("fixed", config(), 0)
+
+
+def test_two_node_chain_fixed_tracks_float():
+    """Node B is updated with node A's estimate advanced by A's rate times the transfer delay (eq 3.29) and
+    R = A's P_psi_psi plus the delay term (digest 2.6); the fixed chain passes the raw binary angle and
+    P_yy, the float chain floats.  Both B estimates agree within 0.01 deg and track the truth."""
+    from firmware_model import fixedpoint as fp
+    from firmware_model.fixed_filter import advance_binary_angle
+
+    cfg = config()
+    t, true_yaw, rate_a, ref = synthetic(R=3, seconds=200.0, rate_deg_s=3.6, seed=4)
+    _, _, rate_b, _ = synthetic(R=3, seconds=200.0, rate_deg_s=3.6, bias_deg_s=0.01, seed=5)
+    delay = 0.015
+    fa, fb = FloatYawFilter(cfg, 3, ref[:, 0]), FloatYawFilter(cfg, 3, ref[:, 0])
+    xa, xb = FixedYawFilter(cfg, 3, ref[:, 0]), FixedYawFilter(cfg, 3, ref[:, 0])
+    sigma_rate = 7.38e-3 * DEG / math.sqrt(DT)
+    diff = []
+    for k in range(t.size):
+        for kf_a, kf_b in ((fa, fb), (xa, xb)):
+            kf_a.predict(rate_a[:, k])
+            kf_a.update(ref[:, k], ENC_VAR)
+            kf_b.predict(rate_b[:, k])
+        # float: eq 3.29 with the delay variance term
+        fb.update(
+            advance_reference(fa.yaw_rad, rate_a[:, k] - fa.bias_rad_s, delay),
+            chain_reference_variance(fa.yaw_variance_rad2, delay, sigma_rate),
+        )
+        # fixed: the raw binary angle and P_yy as they would travel in the packet
+        rate_fx = xa.ctx.from_float((rate_a[:, k] - xa.bias_rad_s) / DEG, xa.formats.rate, "rate")
+        ref_fx = advance_binary_angle(xa.yaw, rate_fx, delay, xa.ctx)
+        r_fx = fp.add(xa.p_yy, xb.ctx.from_float((delay * sigma_rate / DEG) ** 2, xb.formats.p_yy, "R"), xb.formats.p_yy)
+        xb.update_raw(ref_fx, r_fx, np.ones(3, dtype=bool))
+        diff.append(wrap_pi(xb.yaw_rad - fb.yaw_rad))
+    diff = np.array(diff) / DEG
+    assert np.sqrt(np.mean(diff**2)) < 0.01
+    assert np.max(np.abs(wrap_pi(fb.yaw_rad - true_yaw[:, -1]))) < 0.5 * DEG
+    np.testing.assert_allclose(xb.yaw_variance_rad2, fb.yaw_variance_rad2, rtol=1e-2)
+    with pytest.raises(FirmwareError, match="delay_s"):
+        advance_binary_angle(xa.yaw, rate_fx, -1.0, xa.ctx)
