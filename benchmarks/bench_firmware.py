@@ -18,12 +18,12 @@ import math
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
-from fxpmath import Fxp
 
 from firmware_model import fixedpoint as fp
 from firmware_model.fixedpoint import Overflow, QFormat, Rounding
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter, wrap_pi
 from nodesim.bench import best_time_s
+from nodesim.errors import NodesimError
 
 N_ELEMENTS = 100_000
 R_BATCH = 10_000
@@ -33,6 +33,10 @@ DEG = math.pi / 180.0
 
 
 def fixedpoint_vs_fxpmath() -> dict:
+    try:
+        from fxpmath import Fxp  # a test/bench dependency (pyproject [test] extra), not a runtime one
+    except ImportError as exc:
+        raise NodesimError("benchmark fixedpoint_vs_fxpmath needs fxpmath: pip install -e '.[test]'") from exc
     rng = np.random.default_rng(0)
     fmt = QFormat(32, 16)
     x, y = rng.uniform(-200.0, 200.0, (2, N_ELEMENTS))  # some products leave Q16.16 and saturate

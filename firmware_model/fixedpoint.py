@@ -193,7 +193,10 @@ def requantize(
     counter: OverflowCounter | None = None,
     site: str = "requantize",
 ) -> Fx:
-    """Convert int64 ``raw`` with ``frac_in`` fraction bits to format ``out`` (C: ``sat(round(x, s))``)."""
+    """Convert int64 ``raw`` with ``frac_in`` fraction bits to format ``out`` (C: ``sat(round(x, s))``).
+
+    ``raw`` is an int64 intermediate below 2**62 in magnitude (a product of two 32-bit words at most), so
+    that adding the rounding constant cannot overflow int64."""
     return _requantize(np.array(raw, dtype=np.int64), frac_in, out, Rounding(rounding), Overflow(overflow), counter, site)
 
 
