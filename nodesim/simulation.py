@@ -14,13 +14,13 @@ second delay; it is brought back to t_k with the rate the encoder sends: psi_ref
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import simpy
 
 from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
-from firmware_model.yaw_filter import FloatYawFilter, YawFilterConfig
+from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
 from nodesim.errors import NodesimError
 from nodesim.kinematics import LabRotationProfile
 from nodesim.rng import RunStreams
@@ -48,6 +48,7 @@ class LabRun:
     filter_start_s: float
     rotation_end_s: float
     simpy_events: int
+    firmware_overflows: dict = field(default_factory=dict)  # fixed-point saturations per site (fixed filter)
 
 
 def lab_profile(scenario: Scenario) -> LabRotationProfile:
@@ -152,7 +153,9 @@ def simulate_lab(scenario: Scenario) -> LabRun:
             kf = state["filter"]
             if kf is None:
                 b0 = state["bias_sum"] / max(state["bias_n"], 1)
-                kf = state["filter"] = FloatYawFilter(config, R, initial_yaw_rad=out_yaw[:, k - 1], bias_offset_rad_s=b0)
+                kf = state["filter"] = make_yaw_filter(
+                    f.implementation, config, R, initial_yaw_rad=out_yaw[:, k - 1], bias_offset_rad_s=b0
+                )
             kf.predict(gyro_meas[:, k])
             if scheduled[k]:
                 yield env.timeout(delay)  # request leg
@@ -188,4 +191,5 @@ def simulate_lab(scenario: Scenario) -> LabRun:
         filter_start_s=filter_start_s,
         rotation_end_s=profile.rotation_end_s,
         simpy_events=state["events"],
+        firmware_overflows=state["filter"].overflow_counts if state["filter"] is not None else {},
     )
