@@ -304,7 +304,7 @@ def select_metrics(summary: dict, patterns: tuple) -> dict[str, float]:
         k: (float("nan") if v is None else float(v))
         for k, v in flat.items()
         if k not in RESERVED_COLUMNS
-        and v is None or (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool))
+        and (v is None or (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)))
     }
     if not patterns:
         return numeric
