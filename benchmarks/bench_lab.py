@@ -8,7 +8,7 @@ from importlib import resources
 
 from nodesim.bench import best_time_s
 from nodesim.scenario import load_scenario
-from nodesim.simulation import simulate_lab
+from nodesim.chain import simulate_chain
 
 R = 32
 
@@ -18,8 +18,8 @@ def lab_batched_vs_loop() -> dict:
         base, _ = load_scenario(p)
     single = [base.with_overrides(seed=base.seed + i, **{"simulation.realizations": 1}) for i in range(R)]
     batched = base.with_overrides(**{"simulation.realizations": R})
-    t_loop = best_time_s(lambda: [simulate_lab(s) for s in single], repeat=2)
-    t_batch = best_time_s(lambda: simulate_lab(batched), repeat=3)
+    t_loop = best_time_s(lambda: [simulate_chain(s) for s in single], repeat=2)
+    t_batch = best_time_s(lambda: simulate_chain(batched), repeat=3)
     return {
         "lab_batched_speedup_vs_loop": t_loop / t_batch,
         "lab_loop_32_runs_s": t_loop,

@@ -23,20 +23,28 @@ from nodesim.rng import RunStreams
 
 @dataclass
 class LossDraws:
-    """Uniform draws of one link, one per transmission, batched over realizations."""
+    """Uniform draws of one link, one per transmission of each realization, batched over realizations.
+
+    A realization advances its own stream only when it transmits (``mask``), so its losses do not depend on
+    what the other realizations did or on how many there are."""
 
     generators: list[np.random.Generator]
     block: int = 256
     _buffer: np.ndarray = field(default=None, init=False, repr=False)
-    _next: int = field(default=0, init=False, repr=False)
+    _next: np.ndarray = field(default=None, init=False, repr=False)
 
-    def next_uniform(self) -> np.ndarray:
-        """The next uniform number of every realization, shape (R,)."""
-        if self._buffer is None or self._next >= self._buffer.shape[1]:
+    def next_uniform(self, mask: np.ndarray | None = None) -> np.ndarray:
+        """The next uniform number of every realization in ``mask`` (default: all), shape (R,); NaN elsewhere."""
+        R = len(self.generators)
+        if self._buffer is None:
             self._buffer = np.stack([g.random(self.block) for g in self.generators])
-            self._next = 0
-        out = self._buffer[:, self._next]
-        self._next += 1
+            self._next = np.zeros(R, dtype=np.int64)
+        take = np.ones(R, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+        for r in np.flatnonzero(take & (self._next >= self.block)):  # refill exhausted rows only
+            self._buffer[r] = self.generators[r].random(self.block)
+            self._next[r] = 0
+        out = np.where(take, self._buffer[np.arange(R), np.minimum(self._next, self.block - 1)], np.nan)
+        self._next += take
         return out
 
 
@@ -57,16 +65,18 @@ class SimpleLink:
         gens = [streams.link(r, link_index) for r in range(realizations)]
         return cls(name, delay_s, loss_probability, LossDraws(gens), lost=np.zeros(realizations, dtype=np.int64))
 
-    def draw_lost(self) -> np.ndarray:
-        """Whether this transmission is lost, per realization (bool (R,)); advances the stream."""
+    def draw_lost(self, sending: np.ndarray | None = None) -> np.ndarray:
+        """Whether this transmission is lost, per realization (bool (R,)); only the realizations that are
+        ``sending`` (default: all) draw, and only they can lose it."""
         self.transmissions += 1
-        lost = self.draws.next_uniform() < self.loss_probability
+        u = self.draws.next_uniform(sending)
+        lost = np.isfinite(u) & (u < self.loss_probability)
         self.lost += lost
         return lost
 
     def send(self, env: simpy.Environment, packet, deliver: Callable[[object], None], extra_delay_s: float = 0.0):
         """SimPy process: after ``extra_delay_s`` (the sender's processing) and ``delay_s`` call
         ``deliver(packet)`` with the lost realizations invalidated."""
-        lost = self.draw_lost()
+        lost = self.draw_lost(packet.valid)
         yield env.timeout(extra_delay_s + self.delay_s)
         deliver(packet.lost_where(lost))

@@ -139,7 +139,7 @@ class Network:
         top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
         for node_id in range(packet.node_id, top - 1, -1):
             link = self.up_links[node_id - 1]
-            lost = link.draw_lost()
+            lost = link.draw_lost(packet.valid)
             yield self.env.timeout(link.delay_s)
             self.events += 1
             packet = packet.lost_where(lost)

@@ -12,7 +12,10 @@ Every tick at the node's own clock (true time T[k] = offset + k dt / (1 + drift 
      with omega_hat_n the node's own bias-corrected gyro rate;
   5. measurement update in the realizations that got a reference;
   6. transmit (yaw, P_psipsi, rate, seq, t_read = T[k]) to the next node down, only in ticks where the node
-     applied an update (so one reference wave runs down the chain per update; in timeouts all nodes coast);
+     applied an update (so one reference wave runs down the chain per update; in timeouts all nodes coast).
+     The SimPy event is sent whenever a reference reached the node this tick (the schedule for the top node,
+     a packet in the inbox for the others), so the event skeleton is the same for every realization; the
+     packet is ``valid`` only in the realizations that applied the update, and only they draw its loss;
   7. the bottom node sends its survey up at a survey stop.
 Arrays are (R,): the event skeleton is shared by all realizations.
 """
@@ -59,6 +62,7 @@ class ChainNode:
         self.age = np.full((R, K), np.nan)
         self.running = np.zeros(K, dtype=bool)  # filter running and not holding
         self.stops = [s for s in net.motion.stops if s.node_id == node_id]
+        self.opportunity = False  # a reference reached this tick (in any realization): the wave moves on
 
     def deliver(self, packet: EstimatePacket) -> None:
         self.inbox.append(packet)
@@ -68,6 +72,7 @@ class ChainNode:
         for k, t in enumerate(sig.t_s):
             yield env.timeout(t - env.now)
             self.net.events += 1
+            self.opportunity = False
             if t < tl.present_from_s:
                 continue
             if t < tl.filter_start_s:  # static window: initial bias
@@ -89,7 +94,7 @@ class ChainNode:
                     self._forwarded_update(k, t)
                 self.running[k] = True
             self._record(k)
-            if self.applied[:, k].any() and self.node_id < self.net.n_nodes:
+            if self.opportunity and self.node_id < self.net.n_nodes:
                 self._transmit(k, t)
             for stop in self.stops:
                 if stop.t_survey_s <= t < stop.end_s and not any(p.station == stop.station for p in self.net.sent):
@@ -97,6 +102,7 @@ class ChainNode:
                                                       np.ones(self.yaw.shape[0], dtype=bool)))
 
     def _encoder_update(self, k: int, t: float):
+        self.opportunity = True
         env, link = self.net.env, self.net.down_links[self.index]
         lost_request = link.draw_lost()
         yield env.timeout(link.delay_s)
@@ -112,6 +118,7 @@ class ChainNode:
         self.age[:, k] = np.where(have, env.now - t_read, np.nan)
 
     def _forwarded_update(self, k: int, t: float) -> None:
+        self.opportunity = bool(self.inbox)
         sel = select_reference(self.inbox, self.last_seq, t, self.net.max_age_s)
         self.inbox.clear()
         self.stale += sel.stale
