@@ -20,40 +20,28 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from nodesim.chain.motion import ChainMotion, NodeTimeline, SurveyStop
-from nodesim.kinematics import RotationPhase
+from nodesim.kinematics import LabRotationProfile, RotationPhase
 from nodesim.scenario import Scenario
 from nodesim.units import DEG
 
 
 @dataclass(frozen=True)
 class PhaseRotation:
-    """String rotation made of constant-rate phases (static between them); yaw is the integral from 0."""
+    """String rotation made of constant-rate phases (static between them); yaw is the integral from 0.
+
+    The rate/yaw/mean-rate integrals are those of :class:`LabRotationProfile`, which depend only on
+    ``phases``; they are reused, not rewritten."""
 
     phases: tuple[RotationPhase, ...]
+
+    rate_rad_s = LabRotationProfile.rate_rad_s
+    yaw_rad = LabRotationProfile.yaw_rad
+    mean_rate_rad_s = LabRotationProfile.mean_rate_rad_s
 
     @property
     def rotation_end_s(self) -> float:
         return self.phases[-1].end_s if self.phases else 0.0
-
-    def rate_rad_s(self, t_s) -> np.ndarray:
-        t = np.asarray(t_s, dtype=float)
-        rate = np.zeros_like(t)
-        for ph in self.phases:
-            rate = np.where((t >= ph.start_s) & (t < ph.end_s), ph.rate_rad_s, rate)
-        return rate
-
-    def yaw_rad(self, t_s) -> np.ndarray:
-        t = np.asarray(t_s, dtype=float)
-        yaw = np.zeros_like(t)
-        for ph in self.phases:
-            yaw = yaw + ph.rate_rad_s * np.clip(t - ph.start_s, 0.0, ph.end_s - ph.start_s)
-        return yaw
-
-    def mean_rate_rad_s(self, t0_s, t1_s) -> np.ndarray:
-        return (self.yaw_rad(t1_s) - self.yaw_rad(t0_s)) / (np.asarray(t1_s, float) - np.asarray(t0_s, float))
 
 
 @dataclass(frozen=True)
