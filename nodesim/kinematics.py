@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nodesim.errors import NodesimError
 from nodesim.units import DEG
 
 
@@ -85,3 +86,96 @@ class LabRotationProfile:
         t0 = np.asarray(t0_s, dtype=float)
         t1 = np.asarray(t1_s, dtype=float)
         return (self.yaw_rad(t1) - self.yaw_rad(t0)) / (t1 - t0)
+
+    def rate_profile(self) -> "RateProfile":
+        """The same motion as a general :class:`RateProfile` (steps in rate, no ramps)."""
+        segs = [RateSegment(ph.start_s, ph.end_s, ph.rate_rad_s, ph.rate_rad_s) for ph in self.phases]
+        return RateProfile(tuple(segs))
+
+
+@dataclass(frozen=True)
+class RateSegment:
+    """Rotation rate changing linearly from ``rate0_rad_s`` at ``start_s`` to ``rate1_rad_s`` at ``end_s``."""
+
+    start_s: float
+    end_s: float
+    rate0_rad_s: float
+    rate1_rad_s: float
+
+
+@dataclass(frozen=True)
+class RateProfile:
+    """Piecewise-linear rotation rate about the string axis (zero outside the segments); exact angle.
+
+    Segments are sorted and do not overlap; gaps are stationary.  The angle is the exact integral of the
+    rate (piecewise quadratic), so a ramp from 0 to w over T turns w T / 2.
+    """
+
+    segments: tuple[RateSegment, ...]
+
+    def __post_init__(self):
+        prev_end = -math.inf
+        for i, s in enumerate(self.segments):
+            if not (math.isfinite(s.start_s) and math.isfinite(s.end_s) and s.end_s > s.start_s):
+                raise NodesimError(f"rate profile: segment {i} has end_s ({s.end_s}) <= start_s ({s.start_s})")
+            if s.start_s < prev_end:
+                raise NodesimError(f"rate profile: segment {i} starts at {s.start_s} s before the previous one ends ({prev_end} s)")
+            prev_end = s.end_s
+
+    @classmethod
+    def from_phases(cls, phases, t0_s: float = 0.0) -> "RateProfile":
+        """Build from consecutive phases ``(kind, duration_s, rate_rad_s)``, starting at rest at ``t0_s``.
+
+        kinds: ``"hold"`` (keep the current rate; ``rate_rad_s`` ignored), ``"ramp"`` (linear to
+        ``rate_rad_s``), ``"constant"`` (jump to ``rate_rad_s`` and hold), ``"stop"`` (jump to 0, stay for
+        the duration).
+        """
+        t, rate, segs = t0_s, 0.0, []
+        for i, (kind, duration, target) in enumerate(phases):
+            if not duration > 0.0:
+                raise NodesimError(f"rate profile: phase {i} ({kind}) duration_s = {duration} must be > 0")
+            if kind == "hold":
+                r0, r1 = rate, rate
+            elif kind == "ramp":
+                r0, r1 = rate, target
+            elif kind == "constant":
+                r0, r1 = target, target
+            elif kind == "stop":
+                r0, r1 = 0.0, 0.0
+            else:
+                raise NodesimError(f"rate profile: phase {i} kind {kind!r} unknown (allowed: hold, ramp, constant, stop)")
+            if r0 != 0.0 or r1 != 0.0:
+                segs.append(RateSegment(t, t + duration, r0, r1))
+            t, rate = t + duration, r1
+        return cls(tuple(segs))
+
+    def _arrays(self):
+        s = np.array([g.start_s for g in self.segments])
+        e = np.array([g.end_s for g in self.segments])
+        r0 = np.array([g.rate0_rad_s for g in self.segments])
+        r1 = np.array([g.rate1_rad_s for g in self.segments])
+        return s, e, r0, r1
+
+    def rate_rad_s(self, t_s) -> np.ndarray:
+        t = np.asarray(t_s, dtype=float)
+        if not self.segments:
+            return np.zeros_like(t)
+        s, e, r0, r1 = self._arrays()
+        i = np.clip(np.searchsorted(s, t, side="right") - 1, 0, s.size - 1)
+        inside = (t >= s[i]) & (t < e[i])
+        u = (t - s[i]) / (e[i] - s[i])
+        return np.where(inside, r0[i] + (r1[i] - r0[i]) * u, 0.0)
+
+    def angle_rad(self, t_s) -> np.ndarray:
+        """Integral of the rate from -inf (the profile starts at rest with angle 0)."""
+        t = np.asarray(t_s, dtype=float)
+        if not self.segments:
+            return np.zeros_like(t)
+        s, e, r0, r1 = self._arrays()
+        full = 0.5 * (r0 + r1) * (e - s)
+        before = np.concatenate([[0.0], np.cumsum(full)])
+        i = np.clip(np.searchsorted(s, t, side="right") - 1, 0, s.size - 1)
+        dt = np.clip(t - s[i], 0.0, e[i] - s[i])
+        slope = (r1[i] - r0[i]) / (e[i] - s[i])
+        part = r0[i] * dt + 0.5 * slope * dt * dt
+        return np.where(t < s[0], 0.0, before[i] + part)

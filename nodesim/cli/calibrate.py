@@ -1,13 +1,78 @@
-"""``nodesim calibrate``: IMU calibration (not implemented yet: arrives with the sensor models)."""
+"""``nodesim calibrate DATA.csv [--method turntable|lsq] [--json]``: IMU calibration from test positions.
 
-from nodesim.cli._pending import register_pending
+Each CSV row is one test position: ``true_x,true_y,true_z,meas_x,meas_y,meas_z`` (true applied rate or
+gravity vector, averaged sensor output; any consistent units).  Output: ``bias`` (3), ``matrix`` (3x3,
+row i = sensor axis i, so meas = matrix @ true + bias) and the residuals per position.
+"""
 
+from __future__ import annotations
 
-def _args(p) -> None:
-    p.add_argument("data", metavar="DATA.csv", help="one row per test position: true_x,true_y,true_z,meas_x,meas_y,meas_z")
-    p.add_argument("--method", choices=["turntable", "lsq"], default="lsq", help="estimator (default lsq)")
-    p.add_argument("--json", action="store_true", help="print machine-readable JSON on stdout")
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from nodesim.calibration import calibrate
+from nodesim.errors import NodesimError
+from nodesim.results import dumps_json
+
+COLUMNS = ("true_x", "true_y", "true_z", "meas_x", "meas_y", "meas_z")
 
 
 def register(sub) -> None:
-    register_pending(sub, "calibrate", "IMU calibration from test positions", "it arrives with the sensor models", _args)
+    p = sub.add_parser(
+        "calibrate",
+        help="IMU calibration from test positions",
+        description="Estimate bias and scale/misalignment matrix (meas = matrix @ true + bias) from test positions.",
+    )
+    p.add_argument("data", metavar="DATA.csv", help="one row per test position: true_x,true_y,true_z,meas_x,meas_y,meas_z")
+    p.add_argument("--method", choices=["turntable", "lsq"], default="lsq", help="estimator (default lsq)")
+    p.add_argument("--json", action="store_true", help="print machine-readable JSON on stdout")
+    p.set_defaults(func=run)
+
+
+def read_positions(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(true (N,3), meas (N,3)) from a calibration CSV; errors name the file, row and column."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise NodesimError(f"{path}: cannot read calibration data ({getattr(err, 'strerror', None) or err})") from None
+    rows = list(csv.reader(line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")))
+    if not rows:
+        raise NodesimError(f"{path}: empty file (expected a header {','.join(COLUMNS)})")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in COLUMNS if c not in header]
+    if missing:
+        raise NodesimError(f"{path}: missing column(s) {', '.join(missing)} (header must contain {','.join(COLUMNS)})")
+    idx = [header.index(c) for c in COLUMNS]
+    values = np.empty((len(rows) - 1, 6))
+    for r, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise NodesimError(f"{path}: row {r} has {len(row)} fields, the header has {len(header)}")
+        for k, (i, name) in enumerate(zip(idx, COLUMNS)):
+            try:
+                values[r - 2, k] = float(row[i])
+            except ValueError:
+                raise NodesimError(f"{path}: row {r}, column {name}: {row[i]!r} is not a number") from None
+            if not np.isfinite(values[r - 2, k]):
+                raise NodesimError(f"{path}: row {r}, column {name}: {row[i]!r} is not finite")
+    if values.shape[0] == 0:
+        raise NodesimError(f"{path}: no data rows")
+    return values[:, :3], values[:, 3:]
+
+
+def run(args) -> int:
+    true, meas = read_positions(args.data)
+    cal = calibrate(true, meas, args.method)
+    if args.json:
+        sys.stdout.write(dumps_json(cal.as_dict()).decode())
+        return 0
+    print(f"method: {cal.method}   positions: {true.shape[0]}   condition number: {cal.condition_number:.4g}")
+    print("bias:   " + "  ".join(f"{v:12.6g}" for v in cal.bias))
+    print("matrix (meas = matrix @ true + bias):")
+    for row in cal.matrix:
+        print("        " + "  ".join(f"{v:12.6g}" for v in row))
+    print(f"residuals: rms {cal.rms_residual:.4g}, max |.| {np.max(np.abs(cal.residuals)):.4g}")
+    return 0

@@ -1,9 +1,13 @@
-"""Sensor stand-ins for the walking skeleton: z gyro, accelerometer triad, incremental encoder.
+"""Sensor models.  This package module keeps the tick-averaged stand-ins used by the lab simulation.
 
-Everything is batched over realizations (leading axis R) and produced directly at the firmware tick
-(the average over one tick interval), which is what the firmware reads after its own averaging.  The
-full IMU model (scale/misalignment, quantisation to int16 counts at the sensor rate, decimation) replaces
-this module in the sensor issue; the interface (arrays per tick) stays.
+Submodules: :mod:`~nodesim.sensors.imu` (full IMU at the sensor rate: misalignment, biases, Gauss-Markov,
+bias instability, white noise, temperature, clipping, int16 counts, per-tick averaging),
+:mod:`~nodesim.sensors.noise` (the error processes), :mod:`~nodesim.sensors.catalogue` (MPU6500, VN-100T,
+STIM300, iPST-RQH, DIP), :mod:`~nodesim.sensors.encoder`, :mod:`~nodesim.sensors.magnetometer`.
+
+The stand-ins below are batched over realizations (leading axis R) and produced directly at the firmware
+tick (the average over one tick interval), which is what the firmware reads after its own averaging; the
+lab simulation uses this tick-averaged path.
 
 Noise conventions (IEEE Std 952 / thesis appendix V): a white-noise density N (deg/sqrt(s) for a gyro,
 ug/sqrt(Hz) for an accelerometer) averaged over T seconds has standard deviation N / sqrt(T); this is the
@@ -12,13 +16,14 @@ Allan deviation of white noise at tau = T.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from nodesim.kinematics import LabRotationProfile
-from nodesim.units import G0_M_S2
+from nodesim.sensors import noise
+from nodesim.sensors.encoder import RotaryEncoder as Encoder  # noqa: F401  (the stand-in name used by the simulation)
+from nodesim.sensors.magnetometer import specific_force_body
 
 
 @dataclass(frozen=True)
@@ -42,19 +47,13 @@ class GyroZModel:
 
     def gauss_markov(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
         """Stationary Gauss-Markov bias samples, shape (R, K)."""
-        phi = math.exp(-dt_s / self.bias_tau_s)
-        drive = self.bias_instability_rad_s * math.sqrt(1.0 - phi * phi)
-        w = np.stack([rng.standard_normal(n_ticks) for rng in rng_per_realization])
-        out = np.empty_like(w)
-        out[:, 0] = self.bias_instability_rad_s * w[:, 0]
-        for k in range(1, n_ticks):  # recursion over ticks, vectorised over realizations
-            out[:, k] = phi * out[:, k - 1] + drive * w[:, k]
-        return out
+        return np.stack(
+            [noise.gauss_markov(rng, (n_ticks,), self.bias_instability_rad_s, self.bias_tau_s, dt_s) for rng in rng_per_realization]
+        )
 
     def white_noise(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
         """Rate noise averaged over one tick, shape (R, K): sigma = ARW / sqrt(dt)."""
-        sigma = self.arw_rad_per_sqrt_s / math.sqrt(dt_s)
-        return np.stack([sigma * rng.standard_normal(n_ticks) for rng in rng_per_realization])
+        return np.stack([noise.white(rng, (n_ticks,), self.arw_rad_per_sqrt_s, dt_s) for rng in rng_per_realization])
 
 
 @dataclass(frozen=True)
@@ -69,40 +68,11 @@ class AccelModel:
 
     def specific_force(self, inclination_rad: float, azimuth_rad: float, yaw_rad: np.ndarray) -> np.ndarray:
         """Noise-free sensor-frame specific force, shape yaw.shape + (3,)."""
-        fx = G0_M_S2 * math.sin(inclination_rad) * math.cos(azimuth_rad)
-        fy = G0_M_S2 * math.sin(inclination_rad) * math.sin(azimuth_rad)
-        fz = G0_M_S2 * math.cos(inclination_rad)
-        c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-        return np.stack([c * fx + s * fy, -s * fx + c * fy, np.full_like(c, fz)], axis=-1)
+        return specific_force_body(inclination_rad, azimuth_rad, yaw_rad)
 
     def noise(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
         """White noise averaged over one tick, shape (R, K, 3)."""
-        sigma = self.noise_m_s2_per_sqrt_hz / math.sqrt(dt_s)
-        return np.stack([sigma * rng.standard_normal((n_ticks, 3)) for rng in rng_per_realization])
-
-
-@dataclass(frozen=True)
-class Encoder:
-    """Incremental rotary encoder at the top of the string: yaw quantised to whole counts.
-
-    Quantisation step q = 2 pi / counts_per_rev; a uniform quantisation error has sigma = q / sqrt(12)
-    (0.1015 deg for 1024 counts/rev, thesis digest 2.6).  The rate it sends is the true rate (its own
-    differencing noise is below the gyro noise and is modelled in the sensor issue).
-    """
-
-    counts_per_rev: int
-
-    @property
-    def step_rad(self) -> float:
-        return 2.0 * math.pi / self.counts_per_rev
-
-    @property
-    def quantisation_sigma_rad(self) -> float:
-        return self.step_rad / math.sqrt(12.0)
-
-    def read_rad(self, true_yaw_rad) -> np.ndarray:
-        """Quantised yaw: the nearest whole count times the step."""
-        return np.round(np.asarray(true_yaw_rad) / self.step_rad) * self.step_rad
+        return np.stack([noise.white(rng, (n_ticks, 3), self.noise_m_s2_per_sqrt_hz, dt_s) for rng in rng_per_realization])
 
 
 def lab_tick_signals(profile: LabRotationProfile, t_start_s: np.ndarray, dt_s: float):

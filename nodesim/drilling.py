@@ -1,0 +1,252 @@
+"""Drilling process kinematics: tube insertions along a wellpath, true attitude of every node at any time.
+
+A pure model (no SimPy): the chain simulation consumes it.  The process, per tube length L (default
+2 m, the DSM survey spacing, thesis 4.1):
+
+    drill (rotation ramps up, holds, ramps down; the bit advances L at the rate of penetration)
+    -> survey stop (string static, every node surveys)
+    -> tube insertion (string in the slips, static; a new tube with its node is screwed on at the top)
+
+Tube k (k = 0 at the bit) carries node k at ``node_offset_m`` above its lower end.  Tube 0 is in place
+at t = 0; node k >= 1 joins the chain when its insertion ends.  With the bit at measured depth D(t),
+node k sits at MD_k(t) = D(t) - k L - node_offset_m (negative = still above ground, where the attitude of
+the first station applies).  All tubes turn together (rigid, torsion-free string): the spin about the
+tube axis is the same for every node, the string angle theta(t) is the integral of the rate profile.
+
+Yaw of node k (angle of body x from reference north, thesis digest 1.2):
+    psi_k(t) = psi_k0 + theta(t) - theta(t_k) + Gamma(MD_k(t)) - Gamma(MD_k(t_k))
+where psi_k0 is the mounting yaw at its insertion time t_k and Gamma(s) = int_0^s (1 - cos I) dA is the
+geometric twist of a non-spinning frame carried along the path (derived from the body rate of
+R = Rz(A) Ry(I) Rz(psi - A): omega_z = psi' - A' (1 - cos I); it vanishes for a vertical or straight hole).
+Sensor toolface tau' = A - psi (eq 1.3), z-gyro true rate = theta'(t).
+
+Wellpath stations (MD, inclination, azimuth) are interpolated by minimum curvature: the unit tangent
+moves along the great circle between station tangents (slerp), the standard form of thesis App. IV.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodesim.errors import NodesimError
+from nodesim.kinematics import RateProfile
+from nodesim.units import DEG
+
+TWIST_STEP_M = 0.05
+
+
+@dataclass(frozen=True)
+class Wellpath:
+    """Survey stations: measured depth (m, strictly increasing), inclination and azimuth (rad)."""
+
+    md_m: np.ndarray
+    inclination_rad: np.ndarray
+    azimuth_rad: np.ndarray
+
+    def __post_init__(self):
+        md, inc, azi = (np.asarray(x, dtype=float) for x in (self.md_m, self.inclination_rad, self.azimuth_rad))
+        if not (md.ndim == 1 and md.shape == inc.shape == azi.shape and md.size >= 1):
+            raise NodesimError(f"wellpath: md, inclination and azimuth must be equal-length 1-D arrays (got {md.shape}, {inc.shape}, {azi.shape})")
+        for name, arr in (("md_m", md), ("inclination", inc), ("azimuth", azi)):
+            if not np.all(np.isfinite(arr)):
+                raise NodesimError(f"wellpath: station {int(np.flatnonzero(~np.isfinite(arr))[0])} has a non-finite {name}")
+        if np.any(np.diff(md) <= 0):
+            k = int(np.flatnonzero(np.diff(md) <= 0)[0]) + 1
+            raise NodesimError(f"wellpath: station {k} MD {md[k]} m is not greater than the previous ({md[k - 1]} m)")
+        if np.any((inc < 0) | (inc > math.pi)):
+            k = int(np.flatnonzero((inc < 0) | (inc > math.pi))[0])
+            raise NodesimError(f"wellpath: station {k} inclination {math.degrees(inc[k]):.3g} deg outside [0, 180] deg")
+        object.__setattr__(self, "md_m", md)
+        object.__setattr__(self, "inclination_rad", inc)
+        object.__setattr__(self, "azimuth_rad", azi)
+
+    @classmethod
+    def from_degrees(cls, stations) -> "Wellpath":
+        """From rows (MD m, inclination deg, azimuth deg)."""
+        a = np.asarray(stations, dtype=float).reshape(-1, 3)
+        return cls(a[:, 0], a[:, 1] * DEG, a[:, 2] * DEG)
+
+    @staticmethod
+    def _tangent(inc, azi) -> np.ndarray:
+        return np.stack([np.sin(inc) * np.cos(azi), np.sin(inc) * np.sin(azi), np.cos(inc)], axis=-1)
+
+    def attitude_at(self, md_m) -> tuple[np.ndarray, np.ndarray]:
+        """(inclination, azimuth) in rad at measured depths (clipped to the station range)."""
+        md = np.clip(np.asarray(md_m, dtype=float), self.md_m[0], self.md_m[-1])
+        if self.md_m.size == 1:
+            return np.full_like(md, self.inclination_rad[0]), np.full_like(md, self.azimuth_rad[0])
+        k = np.clip(np.searchsorted(self.md_m, md, side="right") - 1, 0, self.md_m.size - 2)
+        u = (md - self.md_m[k]) / (self.md_m[k + 1] - self.md_m[k])
+        t1 = self._tangent(self.inclination_rad[k], self.azimuth_rad[k])
+        t2 = self._tangent(self.inclination_rad[k + 1], self.azimuth_rad[k + 1])
+        beta = np.arccos(np.clip(np.sum(t1 * t2, axis=-1), -1.0, 1.0))
+        sb = np.sin(beta)
+        small = sb < 1e-12
+        w1 = np.where(small, 1.0 - u, np.sin((1.0 - u) * beta) / np.where(small, 1.0, sb))
+        w2 = np.where(small, u, np.sin(u * beta) / np.where(small, 1.0, sb))
+        t = w1[..., None] * t1 + w2[..., None] * t2
+        t /= np.linalg.norm(t, axis=-1, keepdims=True)
+        inc = np.arccos(np.clip(t[..., 2], -1.0, 1.0))
+        horizontal = np.hypot(t[..., 0], t[..., 1]) > 1e-12
+        azi_station = np.where(u < 0.5, self.azimuth_rad[k], self.azimuth_rad[k + 1])
+        azi = np.where(horizontal, np.arctan2(t[..., 1], t[..., 0]), azi_station)
+        return inc, np.remainder(azi, 2.0 * math.pi)
+
+    def twist_rad(self, md_m) -> np.ndarray:
+        """Gamma(MD) = int (1 - cos I) dA from the first station (see module doc), on a 5 cm grid."""
+        n = max(2, int(math.ceil((self.md_m[-1] - self.md_m[0]) / TWIST_STEP_M)) + 1)
+        grid = np.linspace(self.md_m[0], self.md_m[-1], n)
+        inc, azi = self.attitude_at(grid)
+        a = np.unwrap(azi)
+        w = 1.0 - np.cos(inc)
+        gamma = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(a))])
+        return np.interp(np.asarray(md_m, dtype=float), grid, gamma)
+
+
+@dataclass(frozen=True)
+class Phase:
+    name: str  # "drill", "survey" or "insertion"
+    tube: int  # tube being drilled down / surveyed with / inserted
+    start_s: float
+    end_s: float
+
+
+@dataclass(frozen=True)
+class NodeTruth:
+    """True state of every node at times t: arrays (N nodes, K times); NaN where a node is not yet inserted."""
+
+    t_s: np.ndarray
+    present: np.ndarray
+    md_m: np.ndarray
+    inclination_rad: np.ndarray
+    azimuth_rad: np.ndarray
+    yaw_rad: np.ndarray  # unwrapped
+    toolface_rad: np.ndarray  # sensor toolface A - psi, wrapped to [0, 2 pi)
+    spin_rate_rad_s: np.ndarray  # (K,) what every z gyro measures
+
+
+@dataclass(frozen=True)
+class DrillingProcess:
+    """Drilling with tube insertions along ``wellpath`` (see module doc); SI units, angles in rad."""
+
+    wellpath: Wellpath
+    tube_length_m: float = 2.0
+    rop_m_s: float = 0.01
+    drilling_rate_rad_s: float = 60.0 * DEG
+    ramp_s: float = 5.0
+    survey_stop_s: float = 30.0
+    insertion_s: float = 60.0
+    node_offset_m: float = 1.0
+    n_tubes: int | None = None
+    mount_yaw_rad: tuple[float, ...] | None = None  # per node; default 0
+
+    def __post_init__(self):
+        for key in ("tube_length_m", "rop_m_s", "survey_stop_s", "insertion_s"):
+            v = getattr(self, key)
+            if not (math.isfinite(v) and v > 0.0):
+                raise NodesimError(f"drilling: {key} = {v} must be > 0")
+        if not (math.isfinite(self.ramp_s) and self.ramp_s >= 0.0):
+            raise NodesimError(f"drilling: ramp_s = {self.ramp_s} must be >= 0")
+        drill_s = self.tube_length_m / self.rop_m_s
+        if 2.0 * self.ramp_s >= drill_s:
+            raise NodesimError(
+                f"drilling: two ramps of {self.ramp_s} s do not fit in one tube's drilling time {drill_s:.4g} s "
+                f"(allowed: ramp_s < {drill_s / 2:.4g})"
+            )
+        if not 0.0 <= self.node_offset_m <= self.tube_length_m:
+            raise NodesimError(f"drilling: node_offset_m = {self.node_offset_m} must lie in [0, tube_length_m]")
+        if self.n_tubes is not None and self.n_tubes < 1:
+            raise NodesimError(f"drilling: n_tubes = {self.n_tubes} must be >= 1")
+        if self.mount_yaw_rad is not None and len(self.mount_yaw_rad) < self.tubes:
+            raise NodesimError(f"drilling: mount_yaw_rad has {len(self.mount_yaw_rad)} values, need one per tube ({self.tubes})")
+
+    @property
+    def tubes(self) -> int:
+        """Number of tubes drilled: n_tubes, or enough to reach the last wellpath station."""
+        if self.n_tubes is not None:
+            return self.n_tubes
+        return max(1, int(math.ceil((self.wellpath.md_m[-1] - self.wellpath.md_m[0]) / self.tube_length_m - 1e-9)))
+
+    def phases(self) -> tuple[Phase, ...]:
+        out, t = [], 0.0
+        drill_s = self.tube_length_m / self.rop_m_s
+        for k in range(self.tubes):
+            out.append(Phase("drill", k, t, t + drill_s))
+            t += drill_s
+            out.append(Phase("survey", k, t, t + self.survey_stop_s))
+            t += self.survey_stop_s
+            if k + 1 < self.tubes:
+                out.append(Phase("insertion", k + 1, t, t + self.insertion_s))
+                t += self.insertion_s
+        return tuple(out)
+
+    @property
+    def duration_s(self) -> float:
+        return self.phases()[-1].end_s
+
+    def insertion_times_s(self) -> np.ndarray:
+        """Time node k joins: 0 for node 0, the end of its tube's insertion otherwise."""
+        return np.concatenate([[0.0], [p.end_s for p in self.phases() if p.name == "insertion"]])
+
+    def survey_windows_s(self) -> list[tuple[float, float]]:
+        return [(p.start_s, p.end_s) for p in self.phases() if p.name == "survey"]
+
+    def rate_profile(self) -> RateProfile:
+        """Spin of the string: ramps and holds while drilling, zero otherwise."""
+        phases, w = [], self.drilling_rate_rad_s
+        drill_s = self.tube_length_m / self.rop_m_s
+        for p in self.phases():
+            if p.name == "drill":
+                if self.ramp_s > 0:
+                    phases += [("ramp", self.ramp_s, w), ("hold", drill_s - 2 * self.ramp_s, w), ("ramp", self.ramp_s, 0.0)]
+                else:
+                    phases.append(("constant", drill_s, w))
+            else:
+                phases.append(("stop", p.end_s - p.start_s, 0.0))
+        return RateProfile.from_phases(phases, t0_s=0.0)
+
+    def bit_md_m(self, t_s) -> np.ndarray:
+        """Bit depth: advances at the rate of penetration while drilling, constant otherwise."""
+        knots_t, knots_d, depth = [0.0], [self.wellpath.md_m[0]], self.wellpath.md_m[0]
+        for p in self.phases():
+            if p.name == "drill":
+                depth += self.tube_length_m
+            knots_t.append(p.end_s)
+            knots_d.append(depth)
+        return np.interp(np.asarray(t_s, dtype=float), knots_t, knots_d)
+
+    def node_count(self, t_s) -> np.ndarray:
+        """Nodes in the chain at times t."""
+        return np.searchsorted(self.insertion_times_s(), np.asarray(t_s, dtype=float), side="right")
+
+    def truth(self, t_s) -> NodeTruth:
+        """True MD, inclination, azimuth, yaw and toolface of every node at times ``t_s`` (see module doc)."""
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        n = self.tubes
+        t_in = self.insertion_times_s()
+        k = np.arange(n)[:, None]
+        present = t[None, :] >= t_in[:, None]
+        offset = k * self.tube_length_m + self.node_offset_m
+        md = self.bit_md_m(t)[None, :] - offset
+        md_in = self.bit_md_m(t_in)[:, None] - offset
+        wp = self.wellpath
+        inc, azi = wp.attitude_at(np.maximum(md, wp.md_m[0]))
+        rp = self.rate_profile()
+        theta = rp.angle_rad(t)[None, :]
+        mount = np.zeros(n) if self.mount_yaw_rad is None else np.asarray(self.mount_yaw_rad[:n], dtype=float)
+        gamma = wp.twist_rad(np.maximum(md, wp.md_m[0])) - wp.twist_rad(np.maximum(md_in, wp.md_m[0]))
+        yaw = mount[:, None] + theta - rp.angle_rad(t_in)[:, None] + gamma
+        nan = np.where(present, 1.0, np.nan)
+        return NodeTruth(
+            t_s=t,
+            present=present,
+            md_m=md * nan,
+            inclination_rad=inc * nan,
+            azimuth_rad=azi * nan,
+            yaw_rad=yaw * nan,
+            toolface_rad=np.remainder(azi - yaw, 2.0 * math.pi) * nan,
+            spin_rate_rad_s=rp.rate_rad_s(t),
+        )
