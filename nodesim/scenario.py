@@ -57,9 +57,11 @@ class ChainSection(_Section):
 
 class MotionSection(_Section):
     """True motion.  ``kind = "lab"``: the thesis lab rotation profile (thesis 4.2.2-4.2.3): static, slow
-    rotation, pause, fast rotation, static.  ``kind = "drilling"``: one tube per node inserted at the top
-    (string in the slips for ``insertion_s``), ``tube_length_m`` drilled while rotating at
-    ``drill_rate_deg_s``, then a survey stop of ``survey_stop_s`` (straight wellpath at inclination/azimuth)."""
+    rotation, pause, fast rotation, static.  ``kind = "drilling"``: :class:`nodesim.drilling.DrillingProcess`
+    after ``initial_static_s`` at rest: per tube, drill ``tube_length_m`` at ``rate_of_penetration_m_s``
+    rotating at ``drill_rate_deg_s`` (ramps of ``ramp_s``), a survey stop of ``survey_stop_s``, then the next
+    tube's insertion (``insertion_s``, string in the slips), along ``wellpath`` rows [MD m, inclination deg,
+    azimuth deg] (default: a straight hole at inclination_deg / azimuth_deg)."""
 
     kind: Literal["lab", "drilling"] = "lab"
     inclination_deg: float = Field(2.0, ge=0.0, le=180.0)
@@ -73,16 +75,43 @@ class MotionSection(_Section):
     tube_length_m: float = Field(2.0, gt=0.0, le=100.0, description="drilling: tube length = survey spacing")
     rate_of_penetration_m_s: float = Field(2.0 / 120.0, gt=0.0, le=10.0, description="drilling: advance rate")
     drill_rate_deg_s: float = Field(60.0, gt=0.0, le=2000.0, description="drilling: string rotation rate")
+    ramp_s: float = Field(5.0, ge=0.0, le=3600.0, description="drilling: rotation ramp up/down time")
     insertion_s: float = Field(60.0, gt=0.0, le=3600.0, description="drilling: tube insertion (in the slips)")
     survey_stop_s: float = Field(40.0, gt=0.0, le=3600.0, description="drilling: static survey stop per tube")
     survey_settle_s: float = Field(20.0, ge=0.0, le=3600.0, description="drilling: wait before surveying")
+    initial_static_s: float = Field(60.0, gt=0.0, le=3600.0, description="drilling: rest before the first tube")
+    node_offset_m: float = Field(1.0, ge=0.0, le=100.0, description="drilling: node height above its tube's end")
+    wellpath: list[list[float]] = Field(default_factory=list, description="drilling: [MD m, inc deg, azi deg] rows")
+
+    def drilling_duration_s(self, tubes: int) -> float:
+        """Length of the drilling programme of ``tubes`` tubes."""
+        drill = self.tube_length_m / self.rate_of_penetration_m_s
+        return self.initial_static_s + tubes * (drill + self.survey_stop_s) + (tubes - 1) * self.insertion_s
 
     @model_validator(mode="after")
-    def _settle_inside_stop(self) -> "MotionSection":
-        if self.kind == "drilling" and self.survey_settle_s >= self.survey_stop_s:
+    def _drilling_consistent(self) -> "MotionSection":
+        if self.kind != "drilling":
+            if self.wellpath:
+                raise ValueError("wellpath is only used with kind = 'drilling'")
+            return self
+        if self.survey_settle_s >= self.survey_stop_s:
             raise ValueError(
                 f"survey_settle_s ({self.survey_settle_s}) must be less than survey_stop_s ({self.survey_stop_s})"
             )
+        drill = self.tube_length_m / self.rate_of_penetration_m_s
+        if 2.0 * self.ramp_s >= drill:
+            raise ValueError(f"ramp_s ({self.ramp_s}): two ramps must fit in one tube's drilling time "
+                             f"(allowed: < {drill / 2:.4g} s)")
+        if self.node_offset_m > self.tube_length_m:
+            raise ValueError(f"node_offset_m ({self.node_offset_m}) must not exceed tube_length_m ({self.tube_length_m})")
+        for i, row in enumerate(self.wellpath):
+            if len(row) != 3:
+                raise ValueError(f"wellpath[{i}] must be [md_m, inclination_deg, azimuth_deg] (got {len(row)} numbers)")
+            md, inc, azi = row
+            if not 0.0 <= inc <= 180.0 or not 0.0 <= azi < 360.0:
+                raise ValueError(f"wellpath[{i}] = {row}: inclination must be in [0, 180] and azimuth in [0, 360) deg")
+            if i and md <= self.wellpath[i - 1][0]:
+                raise ValueError(f"wellpath[{i}] = {row}: MD must increase (previous {self.wellpath[i - 1][0]} m)")
         return self
 
 
@@ -211,9 +240,7 @@ class Scenario(_Section):
                 f"(allowed: 2 x link_delay_s + processing_s < {dt:.4g} s at {self.chain.firmware_rate_hz} Hz)"
             )
         if self.motion.kind == "drilling":
-            m = self.motion
-            per_tube = m.insertion_s + m.tube_length_m / m.rate_of_penetration_m_s + m.survey_stop_s
-            needed = self.chain.nodes * per_tube
+            needed = self.motion.drilling_duration_s(self.chain.nodes)
             if self.simulation.duration_s < needed:
                 raise ValueError(
                     f"simulation.duration_s ({self.simulation.duration_s}) must cover the drilling programme of "

@@ -1,111 +1,107 @@
-"""A minimal drilling process: tube insertions, drilling with rotation, survey stops (thesis 2.7, 4.1).
+"""The drilling process as the chain sees it: :class:`nodesim.drilling.DrillingProcess` (tube insertions
+along a wellpath, true attitude of every node) turned into node timelines and survey stops (thesis 2.7, 4.1).
 
-Stand-in for the drilling kinematics of the sensor/kinematics issue (a wellpath given as stations, true
-inclination/azimuth/toolface per node); this version drills a straight hole at the scenario's inclination
-and azimuth and keeps the string rigid (every node shares the string's yaw, no torsion).
-
-Programme for tube j = 0 .. N-1 (node id N - j; the bit node N goes in first, node 1 last), each
-``insertion_s + L / ROP + survey_stop_s`` long, starting at t_j = j x that:
-  1. insertion [t_j, t_j + insertion_s): the string is in the slips (no rotation).  The new tube's node is
-     powered and averages its gyro for its initial bias; every node below holds its state (thesis 2.7:
-     "saves psi during the insertion transition and resumes from it afterwards").
-  2. drilling L metres at ROP while the string rotates at ``drill_rate_deg_s``.  The new node starts its
-     filter with an encoder yaw (the new top tube is updated by the encoder first) and forwards it down.
-  3. survey stop of ``survey_stop_s`` (static): after ``survey_settle_s`` (the 32-point moving average has
-     settled) the bottom node's survey of station j+1 (MD = (j+1) L) is taken and sent up to the ground.
+Chain time t = process time + ``initial_static_s``: the string first rests so that the bit node (tube 0)
+can average its gyro for its initial bias.  Then, per tube k (process phases): drill one tube length while
+rotating, a survey stop, then the insertion of tube k + 1 at the top (string in the slips).  Mapping:
+process node k (0 = bit) is chain node id N - k (1 = top of the final chain).
+  - node N: present from 0, static window [0, initial_static_s);
+  - node N - k (k >= 1): present from the start of its tube's insertion; the insertion is its static
+    window (the new node averages its gyro), and its filter starts from an encoder yaw when the insertion
+    ends (thesis 2.7: the new top tube gets an encoder update first);
+  - every node already in the string holds its state during later insertions (thesis 2.7: "saves psi
+    during the insertion transition and resumes from it afterwards");
+  - survey stop of tube k: station k + 1; the bottom node's survey is taken ``survey_settle_s`` after the
+    stop starts (the 32-point moving average has settled) and sent up; its MD is the bottom node's MD.
+Mounting yaws are set so that every node's yaw equals the string angle theta at its insertion (a rigid,
+aligned string: in a straight hole all nodes share the encoder's angle; a curved hole adds the geometric
+twist of :mod:`nodesim.drilling`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from nodesim.chain.motion import ChainMotion, NodeTimeline, SurveyStop
-from nodesim.kinematics import LabRotationProfile, RotationPhase
+import numpy as np
+
+from nodesim.chain.motion import ChainMotion, NodeAttitude, NodeTimeline, SurveyStop
+from nodesim.drilling import DrillingProcess, Wellpath
+from nodesim.kinematics import RateProfile
 from nodesim.scenario import Scenario
 from nodesim.units import DEG
 
 
 @dataclass(frozen=True)
-class PhaseRotation:
-    """String rotation made of constant-rate phases (static between them); yaw is the integral from 0.
+class ShiftedSpin:
+    """The string spin of the process, on chain time (t_chain = t_process + lead_s)."""
 
-    The rate/yaw/mean-rate integrals are those of :class:`LabRotationProfile`, which depend only on
-    ``phases``; they are reused, not rewritten."""
+    profile: RateProfile
+    lead_s: float
+    rotation_end_s: float
 
-    phases: tuple[RotationPhase, ...]
+    def yaw_rad(self, t_s) -> np.ndarray:
+        return self.profile.angle_rad(np.asarray(t_s, dtype=float) - self.lead_s)
 
-    rate_rad_s = LabRotationProfile.rate_rad_s
-    yaw_rad = LabRotationProfile.yaw_rad
-    mean_rate_rad_s = LabRotationProfile.mean_rate_rad_s
+    def rate_rad_s(self, t_s) -> np.ndarray:
+        return self.profile.rate_rad_s(np.asarray(t_s, dtype=float) - self.lead_s)
 
-    @property
-    def rotation_end_s(self) -> float:
-        return self.phases[-1].end_s if self.phases else 0.0
+    def mean_rate_rad_s(self, t0_s, t1_s) -> np.ndarray:
+        t0, t1 = np.asarray(t0_s, dtype=float), np.asarray(t1_s, dtype=float)
+        return (self.yaw_rad(t1) - self.yaw_rad(t0)) / (t1 - t0)
 
 
-@dataclass(frozen=True)
-class DrillingProgramme:
-    tubes: int
-    tube_length_m: float
-    rate_of_penetration_m_s: float
-    drill_rate_rad_s: float
-    insertion_s: float
-    survey_stop_s: float
-    survey_settle_s: float
-
-    @property
-    def drill_s(self) -> float:
-        return self.tube_length_m / self.rate_of_penetration_m_s
-
-    @property
-    def per_tube_s(self) -> float:
-        return self.insertion_s + self.drill_s + self.survey_stop_s
-
-    def tube_start_s(self, j: int) -> float:
-        return j * self.per_tube_s
-
-    def rotation(self) -> PhaseRotation:
-        phases = []
-        for j in range(self.tubes):
-            a = self.tube_start_s(j) + self.insertion_s
-            phases.append(RotationPhase(f"drill_tube_{j + 1}", a, a + self.drill_s, self.drill_rate_rad_s))
-        return PhaseRotation(tuple(phases))
-
-    def timelines(self) -> tuple[NodeTimeline, ...]:
-        out = {}
-        n = self.tubes
-        for j in range(n):
-            node_id = n - j
-            t0 = self.tube_start_s(j)
-            holds = tuple((self.tube_start_s(m), self.tube_start_s(m) + self.insertion_s) for m in range(j + 1, n))
-            top_until = self.tube_start_s(j + 1) if j + 1 < n else math.inf
-            out[node_id] = NodeTimeline(node_id, t0, t0 + self.insertion_s, holds, top_until)
-        return tuple(out[i] for i in range(1, n + 1))
-
-    def stops(self) -> tuple[SurveyStop, ...]:
-        out = []
-        for j in range(self.tubes):
-            start = self.tube_start_s(j) + self.insertion_s + self.drill_s
-            out.append(
-                SurveyStop(j + 1, (j + 1) * self.tube_length_m, self.tubes, start, start + self.survey_settle_s,
-                           start + self.survey_stop_s)
-            )
-        return tuple(out)
+def drilling_process(scenario: Scenario) -> DrillingProcess:
+    """The scenario's drilling process (kinematics issue model), mounts aligned to the string angle."""
+    m = scenario.motion
+    n = scenario.chain.nodes
+    rows = m.wellpath or [[0.0, m.inclination_deg, m.azimuth_deg], [n * m.tube_length_m + 1.0, m.inclination_deg,
+                                                                    m.azimuth_deg]]
+    proc = DrillingProcess(
+        Wellpath.from_degrees(rows),
+        tube_length_m=m.tube_length_m,
+        rop_m_s=m.rate_of_penetration_m_s,
+        drilling_rate_rad_s=m.drill_rate_deg_s * DEG,
+        ramp_s=m.ramp_s,
+        survey_stop_s=m.survey_stop_s,
+        insertion_s=m.insertion_s,
+        node_offset_m=m.node_offset_m,
+        n_tubes=n,
+    )
+    mounts = proc.rate_profile().angle_rad(proc.insertion_times_s())
+    return replace(proc, mount_yaw_rad=tuple(float(x) for x in mounts))
 
 
 def drilling_motion(scenario: Scenario) -> ChainMotion:
     m = scenario.motion
-    prog = DrillingProgramme(
-        tubes=scenario.chain.nodes,
-        tube_length_m=m.tube_length_m,
-        rate_of_penetration_m_s=m.rate_of_penetration_m_s,
-        drill_rate_rad_s=m.drill_rate_deg_s * DEG,
-        insertion_s=m.insertion_s,
-        survey_stop_s=m.survey_stop_s,
-        survey_settle_s=m.survey_settle_s,
-    )
-    stops = prog.stops()
+    n = scenario.chain.nodes
+    lead = m.initial_static_s
+    proc = drilling_process(scenario)
+    phases = proc.phases()
+    insertions = [p for p in phases if p.name == "insertion"]  # tube k = 1 .. n-1
+    surveys = [p for p in phases if p.name == "survey"]
+    drills = [p for p in phases if p.name == "drill"]
+    ins_start = [0.0] + [lead + p.start_s for p in insertions]  # by process node k
+    ins_end = [lead] + [lead + p.end_s for p in insertions]
+    timelines = {}
+    for k in range(n):
+        holds = tuple((ins_start[j], ins_end[j]) for j in range(k + 1, n))
+        top_until = ins_start[k + 1] if k + 1 < n else math.inf
+        timelines[n - k] = NodeTimeline(n - k, ins_start[k], ins_end[k], holds, top_until)
+    t_in = proc.insertion_times_s()
+
+    def attitude(index: int, t_s: np.ndarray) -> NodeAttitude:
+        k = n - 1 - index
+        truth = proc.truth(np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))  # at rest before insertion
+        return NodeAttitude(truth.yaw_rad[k], truth.inclination_rad[k], truth.azimuth_rad[k])
+
+    stops = []
+    for p in surveys:
+        t_survey = lead + p.start_s + m.survey_settle_s
+        md = float(proc.truth(np.array([t_survey - lead])).md_m[0, 0])
+        stops.append(SurveyStop(p.tube + 1, md, n, lead + p.start_s, t_survey, lead + p.end_s))
     lo, hi = scenario.metrics.window_start_s, scenario.metrics.window_end_s
     windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in stops if s.t_survey_s < hi and s.end_s > lo)
-    return ChainMotion(prog.rotation(), m.inclination_deg * DEG, m.azimuth_deg * DEG, prog.timelines(), stops, windows)
+    spin = ShiftedSpin(proc.rate_profile(), lead, lead + drills[-1].end_s)
+    return ChainMotion(spin, attitude, tuple(timelines[i] for i in range(1, n + 1)), tuple(stops), windows,
+                       spin.rotation_end_s)

@@ -94,8 +94,8 @@ def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[s
     sel = metric_ticks(node, run.motion.metric_windows)
     R = node.yaw_est_rad.shape[0]
     inc, azi = output_average(node, window.output_moving_average_points)
-    azi_err = wrap_pi(azi[:, sel] - run.true_azimuth_rad)
-    inc_err = inc[:, sel] - run.true_inclination_rad
+    azi_err = wrap_pi(azi[:, sel] - node.true_azimuth_rad[sel])
+    inc_err = inc[:, sel] - node.true_inclination_rad[sel]
     yaw_err = wrap_pi(node.yaw_est_rad[:, sel] - node.true_yaw_rad[sel])
     timeout = ~node.update_mask[:, sel]
     envelope = np.where(timeout, np.abs(yaw_err), -np.inf).max(axis=1, initial=-np.inf)

@@ -1,21 +1,23 @@
-"""True motion of the chain as the network sees it: the string's yaw, where each node is, and when.
+"""True motion of the chain as the network sees it: the string's spin, each node's attitude, and when
+each node exists, holds and surveys.
 
 Two kinds (``motion.kind``):
   - ``lab``: the thesis lab string (thesis 4.2.2-4.2.3, :class:`nodesim.kinematics.LabRotationProfile`);
     every node is present from t = 0, estimates its initial bias over the static window and shares the
     string's yaw, inclination and azimuth (a rigid string, no torsion).  Node 1 is the top node.
-  - ``drilling``: :class:`nodesim.chain.drilling.DrillingProgramme`: one tube (node) inserted at the top per
-    station; node N (the bit) is inserted first and node 1 last.
+  - ``drilling``: :func:`nodesim.chain.drilling.drilling_motion` around the drilling process of
+    :mod:`nodesim.drilling`; node N (at the bit) is in place first and node 1 is inserted last.
 
-Both give a :class:`ChainMotion`: the rotation truth (yaw, rate, mean rate over an interval), the
-constant inclination/azimuth of the straight hole, one :class:`NodeTimeline` per node and the survey stops.
+Both give a :class:`ChainMotion`: the string spin (angle theta(t), what the encoder reads; its rate is what
+every z gyro sees), each node's true yaw/inclination/azimuth at its tick times, one :class:`NodeTimeline`
+per node and the survey stops.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Callable, Protocol
 
 import numpy as np
 
@@ -64,17 +66,22 @@ class SurveyStop:
 
 
 @dataclass(frozen=True)
+class NodeAttitude:
+    """True attitude of one node at its tick times (K,): yaw (unwrapped), inclination, azimuth (rad)."""
+
+    yaw_rad: np.ndarray
+    inclination_rad: np.ndarray
+    azimuth_rad: np.ndarray
+
+
+@dataclass(frozen=True)
 class ChainMotion:
-    rotation: Rotation
-    inclination_rad: float
-    azimuth_rad: float
+    rotation: Rotation  # the string spin: yaw_rad = theta(t) read by the encoder, rates seen by the z gyros
+    attitude: Callable[[int, np.ndarray], NodeAttitude]  # (node index, tick times) -> truth
     timelines: tuple[NodeTimeline, ...]  # index i = node id i + 1
     stops: tuple[SurveyStop, ...]
     metric_windows: tuple[tuple[float, float], ...]  # where RMS errors are measured
-
-    @property
-    def rotation_end_s(self) -> float:
-        return self.rotation.rotation_end_s
+    rotation_end_s: float  # end of the last rotation (bias convergence is timed from here)
 
 
 def lab_profile(scenario: Scenario) -> LabRotationProfile:
@@ -103,4 +110,9 @@ def build_motion(scenario: Scenario) -> ChainMotion:
         NodeTimeline(i + 1, 0.0, scenario.motion.stationary_s, (), math.inf if i == 0 else 0.0) for i in range(n)
     )
     window = ((scenario.metrics.window_start_s, scenario.metrics.window_end_s),)
-    return ChainMotion(profile, profile.inclination_rad, profile.azimuth_rad, timelines, (), window)
+
+    def attitude(_: int, t_s: np.ndarray) -> NodeAttitude:
+        return NodeAttitude(profile.yaw_rad(t_s), np.full(t_s.shape, profile.inclination_rad),
+                            np.full(t_s.shape, profile.azimuth_rad))
+
+    return ChainMotion(profile, attitude, timelines, (), window, profile.rotation_end_s)

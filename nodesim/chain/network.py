@@ -64,6 +64,8 @@ class NodeRun:
     update_mask: np.ndarray  # (R, K)
     update_age_s: np.ndarray  # (R, K) age of the reference at use, NaN without update
     true_yaw_rad: np.ndarray  # (K,)
+    true_inclination_rad: np.ndarray  # (K,)
+    true_azimuth_rad: np.ndarray  # (K,)
     yaw_est_rad: np.ndarray
     yaw_var_rad2: np.ndarray
     true_bias_rad_s: np.ndarray
@@ -89,8 +91,6 @@ class ChainRun:
     nodes: tuple[NodeRun, ...]
     motion: ChainMotion
     surveys: tuple[GroundSurvey, ...]
-    true_inclination_rad: float
-    true_azimuth_rad: float
     rotation_end_s: float
     lost_packets: np.ndarray  # (R,) over all links
     simpy_events: int
@@ -156,8 +156,6 @@ class Network:
             nodes=runs,
             motion=self.motion,
             surveys=tuple(self.ground),
-            true_inclination_rad=self.motion.inclination_rad,
-            true_azimuth_rad=self.motion.azimuth_rad,
             rotation_end_s=self.motion.rotation_end_s,
             lost_packets=lost,
             simpy_events=self.events,
@@ -182,6 +180,8 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         update_mask=node.applied,
         update_age_s=node.age,
         true_yaw_rad=node.sig.true_yaw_rad,
+        true_inclination_rad=node.sig.true_inclination_rad,
+        true_azimuth_rad=node.sig.true_azimuth_rad,
         yaw_est_rad=node.yaw,
         yaw_var_rad2=node.var,
         true_bias_rad_s=node.sig.true_bias_rad_s,

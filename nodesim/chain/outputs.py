@@ -33,6 +33,8 @@ def timeseries_columns(run: ChainRun, r: int = 0) -> dict[str, np.ndarray]:
             "update": n.update_mask[r].astype(int),
             "update_age_s": n.update_age_s[r],
             "true_yaw_deg": rad_to_deg(n.true_yaw_rad),
+            "true_inclination_deg": rad_to_deg(n.true_inclination_rad),
+            "true_azimuth_deg": rad_to_deg(n.true_azimuth_rad),
             "yaw_est_deg": rad_to_deg(n.yaw_est_rad[r]),
             "yaw_error_deg": rad_to_deg(wrap_pi(n.yaw_est_rad[r] - n.true_yaw_rad)),
             "yaw_sigma_deg": rad_to_deg(np.sqrt(n.yaw_var_rad2[r])),
@@ -56,7 +58,8 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
         p = g.packet
         n = by_id[p.node_id]
         var_f = n.accel_sigma_m_s2**2 / run.moving_average_points
-        horizontal = G0_M_S2 * np.sin(run.true_inclination_rad)
+        true_inc, true_azi = n.true_inclination_rad[p.tick], n.true_azimuth_rad[p.tick]
+        horizontal = G0_M_S2 * np.sin(true_inc)
         sigma_i = np.sqrt(var_f) / G0_M_S2
         for r in range(p.valid.shape[0]):
             sigma_a = np.sqrt(n.yaw_var_rad2[r, p.tick] + var_f / max(horizontal, 1e-12) ** 2)
@@ -66,8 +69,8 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
                 ("inclination_deg", rad_to_deg(n.inclination_rad[r, p.tick])),
                 ("azimuth_deg", rad_to_deg(n.azimuth_rad[r, p.tick])),
                 ("sigma_inclination_deg", rad_to_deg(sigma_i)), ("sigma_azimuth_deg", rad_to_deg(sigma_a)),
-                ("true_inclination_deg", rad_to_deg(run.true_inclination_rad)),
-                ("true_azimuth_deg", rad_to_deg(run.true_azimuth_rad)),
+                ("true_inclination_deg", rad_to_deg(true_inc)),
+                ("true_azimuth_deg", rad_to_deg(true_azi)),
             ):
                 rows[key].append(value)
     order = np.lexsort((np.asarray(rows["station"]), np.asarray(rows["realization"]))) if rows["station"] else []

@@ -4,7 +4,8 @@ Today it wraps the tick-averaged stand-ins of :mod:`nodesim.sensors`; the full I
 sensor issue plug in here without touching the network.  Per node n with true tick times T_n[k]:
     gyro[k]  = (1 + s) * mean true rate over [T_n[k-1], T_n[k]) + b_n(T_n[k]) + white noise   (k = 0: rate 0)
     b_n(t)   = turn-on bias + residual bias after the node's filter start (motion) + Gauss-Markov bias
-    accel[k] = sensor-frame specific force of the tilted string at yaw psi(T_n[k]) + white noise
+    accel[k] = sensor-frame specific force at the node's true inclination, azimuth and yaw + white noise
+(the z gyro sees the string spin; the node's yaw may differ from the spin angle by the wellpath twist)
 Random streams: node n's "gyro" and "accel" streams (nodesim.rng), one generator per realization.
 """
 
@@ -29,6 +30,8 @@ class NodeSignals:
     gyro_rad_s: np.ndarray
     true_bias_rad_s: np.ndarray
     true_yaw_rad: np.ndarray  # (K,)
+    true_inclination_rad: np.ndarray  # (K,)
+    true_azimuth_rad: np.ndarray  # (K,)
     specific_force: np.ndarray  # (R, K, 3) sensor frame
     gyro_white_sigma_rad_s: float  # per-tick white-noise sigma (used in R of the next node)
     accel_sigma_m_s2: float  # per-tick, per-axis accelerometer noise sigma
@@ -63,15 +66,17 @@ def node_signals(
     if K > 1:
         true_rate[1:] = rot.mean_rate_rad_s(t_s[:-1], t_s[1:])
     meas = (1.0 + gyro.scale_factor_error) * true_rate[None, :] + true_bias + gyro.white_noise(gyro_rngs, K, dt_s)
-    yaw = rot.yaw_rad(t_s)
-    f = accel.specific_force(motion.inclination_rad, motion.azimuth_rad, yaw)[None] + accel.noise(
+    att = motion.attitude(node_index, t_s)
+    f = accel.specific_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad)[None] + accel.noise(
         streams.sensor_batch(R, node_index, "accel"), K, dt_s
     )
     return NodeSignals(
         t_s=t_s,
         gyro_rad_s=meas,
         true_bias_rad_s=true_bias,
-        true_yaw_rad=yaw,
+        true_yaw_rad=att.yaw_rad,
+        true_inclination_rad=att.inclination_rad,
+        true_azimuth_rad=att.azimuth_rad,
         specific_force=f,
         gyro_white_sigma_rad_s=gyro.arw_rad_per_sqrt_s / np.sqrt(dt_s),
         accel_sigma_m_s2=accel.noise_m_s2_per_sqrt_hz / np.sqrt(dt_s),
