@@ -55,6 +55,11 @@ BAD_CASES = [
     ('[motion]\nkind = "drilling"\n[chain]\nnodes = 10\n', "<top level>", "must cover the drilling programme of 10 tubes"),
     ('[motion]\nkind = "drilling"\nsurvey_stop_s = 10.0\nsurvey_settle_s = 20.0\n', "motion", "must be less than survey_stop_s"),
     ('[motion]\nkind = "spinning"\n', "motion.kind", "'lab'"),
+    ('[motion]\nwellpath = [[0.0, 1.0, 2.0]]\n', "motion", "wellpath is only used with kind = 'drilling'"),
+    ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 1.0]]\n', "motion", "wellpath[0] must be [md_m, inclination_deg, azimuth_deg]"),
+    ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 1.0, 2.0], [0.0, 2.0, 3.0]]\n', "motion", "wellpath[1] = [0.0, 2.0, 3.0]: MD must increase"),
+    ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 190.0, 2.0]]\n', "motion", "inclination must be in [0, 180]"),
+    ('[motion]\nkind = "drilling"\nramp_s = 70.0\n', "motion", "ramp_s (70.0): two ramps must fit"),
 ]
 
 
