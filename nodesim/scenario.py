@@ -125,8 +125,8 @@ class SensorSection(_Section):
     )
     gyro_scale_factor_error: float = Field(
         0.001, gt=-0.5, lt=0.5,
-        description="residual z-gyro scale-factor error after a linear calibration (fraction); 0.1 % = the MPU-6500 "
-        "datasheet nonlinearity, the part a linear calibration (thesis App. III) cannot remove",
+        description="residual z-gyro scale-factor error after calibration (fraction): thesis table 4.16 "
+        "(MPU6500 scale factor error 1e-3)",
     )
     gyro_bias_instability_deg_s: float = Field(3.33e-3, ge=0.0, le=10.0, description="Gauss-Markov sigma")
     gyro_bias_tau_s: float = Field(500.0, gt=0.0, le=1e7, description="Gauss-Markov correlation time")

@@ -18,7 +18,8 @@ import numpy as np
 from nodesim.chain.motion import ChainMotion
 from nodesim.rng import RunStreams
 from nodesim.scenario import Scenario
-from nodesim.sensors import AccelModel, Encoder, GyroZModel
+from nodesim.sensors import AccelModel, GyroZModel
+from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG, G0_M_S2
 
 
@@ -85,14 +86,15 @@ def node_signals(
 
 @dataclass(frozen=True)
 class EncoderReader:
-    """The rotary encoder at the top of the string: quantised yaw and the rate it sends with it."""
+    """The rotary encoder at the top of the string (:class:`nodesim.sensors.encoder.RotaryEncoder`): the
+    count nearest the string angle and the rate it sends with it (count difference over its rate window)."""
 
-    encoder: Encoder
+    encoder: RotaryEncoder
     motion: ChainMotion
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, motion: ChainMotion) -> "EncoderReader":
-        return cls(Encoder(counts_per_rev=scenario.sensor.encoder_counts_per_rev), motion)
+        return cls(RotaryEncoder(counts_per_rev=scenario.sensor.encoder_counts_per_rev), motion)
 
     @property
     def variance_rad2(self) -> float:
@@ -100,6 +102,6 @@ class EncoderReader:
         return self.encoder.quantisation_sigma_rad**2
 
     def read(self, t_s: float) -> tuple[float, float]:
-        """(quantised yaw, rate) read at true time ``t_s``."""
-        yaw = float(self.encoder.read_rad(self.motion.rotation.yaw_rad(t_s)))
-        return yaw, float(self.motion.rotation.rate_rad_s(t_s))
+        """(quantised yaw, differenced rate) read at true time ``t_s``."""
+        r = self.encoder.read(self.motion.rotation.yaw_rad, np.asarray(t_s, dtype=float))
+        return float(r.yaw_rad), float(r.rate_rad_s)
