@@ -1,7 +1,7 @@
 """Survey resolution and the firmware's moving-average filter.
 
-Resolution of the accelerometer vector by the estimated yaw (thesis eqs 1.1-1.3, reconstructed in the
-thesis digest 1.2):
+Resolution of the accelerometer vector by the estimated yaw into inclination, toolface and azimuth (thesis
+eqs 1.1-1.3, reconstructed in the thesis digest 1.2):
     (1.1) f = Rz(psi) f'
     (1.2) I = atan2(sqrt(f_x^2 + f_y^2), f_z)
     (1.3) A = atan2(f_y, f_x) mod 2 pi = tau' + psi,   tau' = atan2(f'_y, f'_x)
@@ -11,19 +11,35 @@ so a yaw error becomes the same azimuth error and inclination does not depend on
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 
+@dataclass(frozen=True)
+class Survey:
+    """One resolved survey (rad): inclination I, sensor-frame toolface tau' and azimuth A, same shapes."""
+
+    inclination_rad: np.ndarray
+    toolface_rad: np.ndarray
+    azimuth_rad: np.ndarray
+
+
+def resolve(specific_force_sensor: np.ndarray, yaw_rad: np.ndarray) -> Survey:
+    """Eqs 1.1-1.3: I = atan2(|f_xy|, f_z) (rotation by psi leaves |f_xy| unchanged), tau' = atan2(f'_y, f'_x),
+    A = (tau' + psi) mod 2 pi, which equals atan2(f_y, f_x) of the rotated vector f = Rz(psi) f'."""
+    f = np.asarray(specific_force_sensor, dtype=float)
+    fx_s, fy_s, fz = f[..., 0], f[..., 1], f[..., 2]
+    toolface = np.arctan2(fy_s, fx_s)
+    inclination = np.arctan2(np.hypot(fx_s, fy_s), fz)
+    azimuth = np.remainder(toolface + yaw_rad, 2.0 * math.pi)
+    return Survey(inclination, np.remainder(toolface, 2.0 * math.pi), azimuth)
+
+
 def resolve_survey(specific_force_sensor: np.ndarray, yaw_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inclination and azimuth (rad) from sensor-frame specific force (..., 3) and yaw (...)."""
-    fx_s, fy_s, fz = specific_force_sensor[..., 0], specific_force_sensor[..., 1], specific_force_sensor[..., 2]
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    fx = fx_s * c - fy_s * s
-    fy = fx_s * s + fy_s * c
-    inclination = np.arctan2(np.hypot(fx, fy), fz)
-    azimuth = np.remainder(np.arctan2(fy, fx), 2.0 * math.pi)
-    return inclination, azimuth
+    s = resolve(specific_force_sensor, yaw_rad)
+    return s.inclination_rad, s.azimuth_rad
 
 
 def trailing_moving_average(x: np.ndarray, points: int, axis: int = -1) -> np.ndarray:

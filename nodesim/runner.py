@@ -35,6 +35,7 @@ def run_scenario(
     summary["seed"] = scenario.seed
     summary["simpy_events"] = run.simpy_events
     summary["nodes"] = len(run.nodes)
+    summary["firmware_saturations"] = sum(sum(n.firmware_overflows.values()) for n in run.nodes)
 
     out = Path(out_dir) if out_dir is not None else default_run_dir(scenario.name, started)
     write_outputs(run, out, f"{scenario.name}: realization 0", per_real, plots)

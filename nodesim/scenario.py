@@ -137,7 +137,7 @@ class SensorSection(_Section):
 class FilterSection(_Section):
     """Node yaw filter settings (thesis 4.2.2; tuning factors A and B of eq 4.14)."""
 
-    implementation: Literal["float"] = "float"
+    implementation: Literal["float", "fixed"] = "float"
     tuning_a: float = Field(1.0, gt=0.0, le=1e3)
     tuning_b: float = Field(5.0, gt=0.0, le=1e3)
     bias_tau_s: float = Field(500.0, gt=0.0, le=1e7)

@@ -76,6 +76,7 @@ class NodeRun:
     duplicate_packets: np.ndarray  # (R,)
     filter_start_s: float
     accel_sigma_m_s2: float
+    firmware_overflows: dict  # fixed-point saturation/overflow events per site (empty for the float filter)
 
 
 @dataclass(frozen=True)
@@ -109,7 +110,7 @@ class Network:
         self.dt_s = 1.0 / c.firmware_rate_hz
         self.max_age_s = c.max_update_age_s
         self.processing_s = c.processing_s
-        self.offset_var_rad2 = (c.offset_sigma_deg * DEG) ** 2
+        self.offset_sigma_rad = c.offset_sigma_deg * DEG
         self.motion = build_motion(scenario)
         self.encoder = EncoderReader.from_scenario(scenario, self.motion)
         R = scenario.simulation.realizations
@@ -192,6 +193,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         duplicate_packets=node.duplicate,
         filter_start_s=node.timeline.filter_start_s,
         accel_sigma_m_s2=node.sig.accel_sigma_m_s2,
+        firmware_overflows=dict(node.kf.overflow_counts) if node.kf is not None else {},
     )
 
 

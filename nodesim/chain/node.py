@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nodesim.chain.estimator import new_filter, rate_estimate
+from nodesim.chain.estimator import forwarded_reference, new_filter, rate_estimate
 from nodesim.chain.motion import NodeTimeline
 from nodesim.chain.packets import EstimatePacket, SurveyPacket, select_reference
 from nodesim.chain.sensing import NodeSignals
@@ -127,9 +127,10 @@ class ChainNode:
             return
         transfer = np.where(sel.have, t - sel.t_read_s, 0.0)
         omega = rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])
-        ref = sel.yaw_rad + omega * transfer
-        var = sel.yaw_var_rad2 + (transfer * self.sig.gyro_white_sigma_rad_s) ** 2 + self.net.offset_var_rad2
-        self.kf.update(ref, np.where(sel.have, var, 1.0), mask=sel.have)
+        var_in = np.where(sel.have, sel.yaw_var_rad2, 1.0)
+        ref, var = forwarded_reference(sel.yaw_rad, var_in, omega, transfer, self.sig.gyro_white_sigma_rad_s,
+                                       self.net.offset_sigma_rad)
+        self.kf.update(ref, var, mask=sel.have)
         self.last_seq = np.where(sel.have, sel.seq, self.last_seq)
         self.applied[:, k] = sel.have
         self.age[:, k] = np.where(sel.have, transfer, np.nan)

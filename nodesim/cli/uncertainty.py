@@ -1,16 +1,112 @@
-"""``nodesim uncertainty``: wellpath and ISCWSA covariance (not implemented yet: arrives with the ground station)."""
+"""``nodesim uncertainty``: wellpath and ISCWSA position uncertainty per station of a survey CSV."""
 
-from nodesim.cli._pending import register_pending
+from __future__ import annotations
 
+import sys
+from pathlib import Path
 
-def _args(p) -> None:
-    p.add_argument("survey", metavar="SURVEY.csv", help="survey with columns md_m,inc_deg,azi_deg")
-    p.add_argument("--tool", required=True, help="tool model name (dip, vn100t, stim300, ipst_rqh, mpu6500, ...)")
-    p.add_argument("--json", action="store_true", help="print machine-readable JSON on stdout")
-    p.add_argument("--plot", metavar="PNG", help="write the trajectory with its ellipses")
+import numpy as np
+
+from nodesim.results import dumps_json
 
 
 def register(sub) -> None:
-    register_pending(
-        sub, "uncertainty", "wellpath and ISCWSA position uncertainty per station", "it arrives with the ground station", _args
+    p = sub.add_parser(
+        "uncertainty",
+        help="wellpath and ISCWSA position uncertainty per station",
+        description=(
+            "Read a survey CSV (columns md_m,inc_deg,azi_deg and optionally time_s), compute the "
+            "minimum-curvature wellpath and the ISCWSA covariance of every station for a tool model, and "
+            "print the N/E/TVD uncertainties."
+        ),
     )
+    p.add_argument(
+        "survey",
+        metavar="SURVEY.csv",
+        help="survey with columns md_m,inc_deg,azi_deg and optional time_s, sigma_inc_deg, sigma_azi_deg (per-station 1-sigma errors added as random terms)",
+    )
+    p.add_argument(
+        "--tool", required=True, help="tool model: dip, vn100t, stim300, ipst_rqh, mpu6500, mpu6500_filtered, or a tool .toml"
+    )
+    p.add_argument("--json", action="store_true", help="print machine-readable JSON on stdout")
+    p.add_argument("--plot", metavar="PNG", help="write the trajectory with its ellipses")
+    p.add_argument(
+        "--seconds-per-station",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="time between stations for the time-based gyro terms when the CSV has no time_s (default 60)",
+    )
+    p.add_argument(
+        "--sigma", choices=("1", "2", "95"), default="1", help="reported level: 1 or 2 sigma, or 95 %% per axis (default 1)"
+    )
+    p.add_argument("--method", choices=("minimum_curvature", "balanced_tangential"), default="minimum_curvature")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from nodesim.ground import load_tool, propagate, read_survey_csv
+    from nodesim.ground.ellipsoid import confidence_scale, horizontal_ellipse, nev_to_hla
+
+    survey = read_survey_csv(Path(args.survey), args.seconds_per_station)
+    model = load_tool(args.tool)
+    u = propagate(survey, model, method=args.method)
+    model = u.model  # includes the survey's own sigma columns, if any
+    scale = confidence_scale(args.sigma, dof=1)
+    sd = np.sqrt(np.clip(np.einsum("nii->ni", u.cov_nev_m2), 0.0, None))
+    hla = nev_to_hla(u.cov_nev_m2, survey.inc_rad, survey.azi_rad)
+    major, minor, azi = horizontal_ellipse(u.cov_nev_m2)
+    if args.plot:
+        from nodesim.plots_ground import plot_uncertainty
+
+        plot_uncertainty(u, Path(args.plot), scale, f"{Path(args.survey).name}, tool {model.name}")
+    if args.json:
+        stations = []
+        for k in range(len(survey)):
+            stations.append(
+                {
+                    "md_m": survey.md_m[k],
+                    "inc_deg": float(np.degrees(survey.inc_rad[k])),
+                    "azi_deg": float(np.degrees(survey.azi_rad[k])),
+                    "n_m": u.path.n_m[k],
+                    "e_m": u.path.e_m[k],
+                    "tvd_m": u.path.tvd_m[k],
+                    "cov_nev_m2": u.cov_nev_m2[k],
+                    "cov_hla_m2": hla[k],
+                    "sigma_n_m": scale * sd[k, 0],
+                    "sigma_e_m": scale * sd[k, 1],
+                    "sigma_tvd_m": scale * sd[k, 2],
+                    "horizontal_semi_major_m": scale * major[k],
+                    "horizontal_semi_minor_m": scale * minor[k],
+                    "horizontal_major_azi_deg": float(np.degrees(azi[k])),
+                }
+            )
+        out = {
+            "tool": model.name,
+            "description": model.description,
+            "sigma": args.sigma,
+            "scale": scale,
+            "method": args.method,
+            "sources": [s.as_dict() for s in model.sources],
+            "stations": stations,
+        }
+        sys.stdout.write(dumps_json(out).decode())
+        return 0
+    label = {"1": "1 sigma", "2": "2 sigma", "95": "95 % per axis"}[args.sigma]
+    print(f"tool {model.name}: {len(model.sources)} error sources; uncertainties at {label} [m]")
+    header = ("md_m", "inc_deg", "azi_deg", "n_m", "e_m", "tvd_m", "+-n_m", "+-e_m", "+-tvd_m")
+    print("  ".join(f"{h:>10}" for h in header))
+    for k in range(len(survey)):
+        row = (
+            survey.md_m[k],
+            np.degrees(survey.inc_rad[k]),
+            np.degrees(survey.azi_rad[k]),
+            u.path.n_m[k],
+            u.path.e_m[k],
+            u.path.tvd_m[k],
+            scale * sd[k, 0],
+            scale * sd[k, 1],
+            scale * sd[k, 2],
+        )
+        print("  ".join(f"{v:>10.4g}" for v in row))
+    return 0

@@ -1,0 +1,144 @@
+"""Surveys: measured depth, inclination and azimuth per station, validated once at the edge.
+
+A :class:`Survey` holds SI arrays (metres, radians, seconds).  :func:`make_survey` checks the input
+(finite values, strictly increasing MD, inclination in [0, 180] deg, azimuth finite) and names the
+offending row; :func:`read_survey_csv` reads the CSV form used by ``nodesim uncertainty`` (columns
+``md_m,inc_deg,azi_deg`` and optionally ``time_s``, ``sigma_inc_deg``, ``sigma_azi_deg``).
+
+The optional per-station 1-sigma angle errors are how a simulated filter (or the station fusion) feeds its
+own inclination/azimuth uncertainty into the ISCWSA model: :func:`nodesim.ground.covariance.propagate`
+adds them as random direct terms (codes ``SURVEY-INC`` and ``SURVEY-AZ``).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from nodesim.errors import NodesimError
+from nodesim.units import DEG
+
+
+@dataclass(frozen=True, eq=False)
+class Survey:
+    """Stations of one well, in station order.
+
+    md_m: measured depth [m]; inc_rad, azi_rad: inclination and azimuth [rad] (azimuth from the
+    reference north of the local frame, clockwise seen from above); time_s: time of each survey since
+    the start of the run [s] (drives the time-based gyro terms, thesis eqs 2.4-2.7).
+    """
+
+    md_m: np.ndarray
+    inc_rad: np.ndarray
+    azi_rad: np.ndarray
+    time_s: np.ndarray
+    sigma_inc_rad: np.ndarray | None = None
+    sigma_azi_rad: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return int(self.md_m.size)
+
+
+def make_survey(
+    md_m,
+    inc_deg,
+    azi_deg,
+    time_s=None,
+    seconds_per_station: float = 60.0,
+    where: str = "survey",
+    sigma_inc_deg=None,
+    sigma_azi_deg=None,
+) -> Survey:
+    """Validate and convert a survey given in degrees.
+
+    ``time_s`` defaults to ``seconds_per_station * k`` for station k (thesis 4.1.3: 60 s between stations).
+    Errors name ``where`` and the 1-based data row.
+    """
+    md = np.asarray(md_m, dtype=float).ravel()
+    inc = np.asarray(inc_deg, dtype=float).ravel()
+    azi = np.asarray(azi_deg, dtype=float).ravel()
+    if not (md.size == inc.size == azi.size):
+        raise NodesimError(f"{where}: md, inc and azi have different lengths ({md.size}, {inc.size}, {azi.size})")
+    if md.size < 2:
+        raise NodesimError(f"{where}: needs at least 2 stations, got {md.size}")
+    if not np.isfinite(seconds_per_station) or seconds_per_station < 0:
+        raise NodesimError(f"{where}: seconds per station must be finite and >= 0, got {seconds_per_station}")
+    if time_s is None:
+        t = seconds_per_station * np.arange(md.size, dtype=float)
+    else:
+        t = np.asarray(time_s, dtype=float).ravel()
+        if t.size != md.size:
+            raise NodesimError(f"{where}: time_s has {t.size} values for {md.size} stations")
+    for name, arr in (("md_m", md), ("inc_deg", inc), ("azi_deg", azi), ("time_s", t)):
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise NodesimError(f"{where}: row {bad[0] + 1}: {name} is not a finite number ({arr[bad[0]]})")
+    steps = np.diff(md)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        k = bad[0] + 1
+        kind = "duplicate" if steps[bad[0]] == 0 else "decreasing"
+        raise NodesimError(
+            f"{where}: row {k + 1}: md_m {md[k]:g} is {kind} (after {md[k - 1]:g}); MD must strictly increase"
+        )
+    bad = np.flatnonzero((inc < 0) | (inc > 180))
+    if bad.size:
+        raise NodesimError(f"{where}: row {bad[0] + 1}: inc_deg {inc[bad[0]]:g} is outside [0, 180]")
+    bad = np.flatnonzero(np.diff(t) < 0)
+    if bad.size:
+        raise NodesimError(f"{where}: row {bad[0] + 2}: time_s decreases ({t[bad[0] + 1]:g} after {t[bad[0]]:g})")
+    sigmas = []
+    for name, arr in (("sigma_inc_deg", sigma_inc_deg), ("sigma_azi_deg", sigma_azi_deg)):
+        if arr is None:
+            sigmas.append(None)
+            continue
+        a = np.asarray(arr, dtype=float).ravel()
+        if a.size != md.size:
+            raise NodesimError(f"{where}: {name} has {a.size} values for {md.size} stations")
+        bad = np.flatnonzero(~np.isfinite(a) | (a < 0))
+        if bad.size:
+            raise NodesimError(f"{where}: row {bad[0] + 1}: {name} {a[bad[0]]:g} must be finite and >= 0")
+        sigmas.append(a * DEG)
+    return Survey(md, inc * DEG, np.remainder(azi, 360.0) * DEG, t, sigmas[0], sigmas[1])
+
+
+REQUIRED_COLUMNS = ("md_m", "inc_deg", "azi_deg")
+
+
+def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
+    """Read a survey CSV (header ``md_m,inc_deg,azi_deg`` plus optional ``time_s``, ``sigma_inc_deg``,
+    ``sigma_azi_deg``); errors name the file, row and column."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise NodesimError(f"{path}: cannot read survey ({err})") from err
+    rows = list(csv.reader(line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")))
+    if not rows:
+        raise NodesimError(f"{path}: empty survey file (expected header {','.join(REQUIRED_COLUMNS)})")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise NodesimError(f"{path}: missing column(s) {missing}; header must contain {list(REQUIRED_COLUMNS)} (optional time_s)")
+    cols = {name: [] for name in header}
+    for i, row in enumerate(rows[1:], start=1):
+        if len(row) != len(header):
+            raise NodesimError(f"{path}: row {i}: {len(row)} fields, header has {len(header)}")
+        for name, value in zip(header, row):
+            try:
+                cols[name].append(float(value))
+            except ValueError:
+                raise NodesimError(f"{path}: row {i}: column {name}: '{value.strip()}' is not a number") from None
+    return make_survey(
+        cols["md_m"],
+        cols["inc_deg"],
+        cols["azi_deg"],
+        cols.get("time_s"),
+        seconds_per_station,
+        where=str(path),
+        sigma_inc_deg=cols.get("sigma_inc_deg"),
+        sigma_azi_deg=cols.get("sigma_azi_deg"),
+    )

@@ -1,0 +1,60 @@
+"""Plot of a wellpath with its uncertainty ellipses (matplotlib, Agg backend)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Ellipse  # noqa: E402
+
+from nodesim.ground.covariance import Uncertainty  # noqa: E402
+from nodesim.ground.ellipsoid import horizontal_ellipse  # noqa: E402
+from nodesim.results import atomic_write_with  # noqa: E402
+
+
+MAX_ELLIPSES = 200
+
+
+def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> None:
+    """Plan view (E, N) with the horizontal ellipses and the TVD band against MD, both at ``scale`` sigma."""
+    p = u.path
+    major, minor, azi = horizontal_ellipse(u.cov_nev_m2)
+    sd_tvd = np.sqrt(np.clip(u.cov_nev_m2[:, 2, 2], 0.0, None))
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(11, 5))
+    ax0.plot(p.e_m, p.n_m, "-o", ms=2.5, lw=1.0, color="tab:blue", label="wellpath")
+    stride = max(1, len(p.n_m) // MAX_ELLIPSES)  # long wells: draw every stride-th ellipse and the last
+    for k in sorted(set(range(0, len(p.n_m), stride)) | {len(p.n_m) - 1}):
+        if major[k] <= 0:
+            continue
+        # Ellipse angle is counter-clockwise from the x (east) axis; the major axis azimuth is clockwise from north
+        ax0.add_patch(
+            Ellipse(
+                (p.e_m[k], p.n_m[k]),
+                2 * scale * major[k],
+                2 * scale * minor[k],
+                angle=float(np.degrees(np.pi / 2 - azi[k])),
+                fill=False,
+                lw=0.7,
+                color="tab:red",
+            )
+        )
+    ax0.set_xlabel("East [m]")
+    ax0.set_ylabel("North [m]")
+    ax0.set_aspect("equal", adjustable="datalim")
+    ax0.grid(True, lw=0.3)
+    ax0.set_title(f"plan view, {scale:g} sigma ellipses")
+    ax1.plot(p.survey.md_m, scale * sd_tvd, color="tab:green", label="TVD")
+    ax1.plot(p.survey.md_m, scale * major, color="tab:red", label="horizontal semi-major")
+    ax1.plot(p.survey.md_m, scale * minor, color="tab:orange", label="horizontal semi-minor")
+    ax1.set_xlabel("MD [m]")
+    ax1.set_ylabel(f"uncertainty ({scale:g} sigma) [m]")
+    ax1.grid(True, lw=0.3)
+    ax1.legend(loc="best")
+    fig.suptitle(title)
+    fig.tight_layout()
+    atomic_write_with(path, lambda f: fig.savefig(f, dpi=110, format="png"))
+    plt.close(fig)

@@ -1,0 +1,83 @@
+"""Firmware-model figures (thesis 4.2.2-4.2.3 tuning; thesis digest 2.7 fixed-point acceptance).
+
+Each runs the bundled lab scenario (8 realizations) through the chain simulation (a chain of one node):
+- bias convergence after the rotation stops with B = 5 and B = 1 (thesis fig 4.11b: ~82.8 s and
+  ~177.98 s), the criterion of the thesis digest 5.4 (within +/- 0.002 deg/s of the true bias for 10 s);
+- the fixed-point filter (default formats) against the float filter on the same inputs: RMS yaw difference
+  (digest 2.7 acceptance < 0.01 deg), with continuous updates and with 20 s / 30 s windowed updates, and
+  the number of saturations (none expected with the default formats).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+
+from nodesim.chain import ChainRun, simulate_chain
+from nodesim.chain.metrics import bias_convergence_time_s
+from nodesim.scenario import Scenario, load_scenario
+from nodesim.units import DEG, rad_to_deg, wrap_pi
+from nodesim.validation import Check, within_abs, within_factor, within_rel
+
+REALIZATIONS = 8
+FIG_4_11B = "thesis fig 4.11b / sec 4.2.3 (bias convergence after the rotation stops)"
+DIGEST_FIXED = "thesis digest 2.7 fixed-point acceptance (not in the thesis; [A])"
+
+
+@lru_cache(maxsize=1)
+def _base() -> Scenario:
+    with resources.as_file(resources.files("scenarios") / "lab" / "continuous.toml") as p:
+        scenario, _ = load_scenario(p)
+    return scenario.with_overrides(**{"simulation.realizations": REALIZATIONS})
+
+
+def _convergence_s(tuning_b: float) -> float:
+    run = simulate_chain(_base().with_overrides(**{"filter.tuning_b": tuning_b}))
+    times = bias_convergence_time_s(run.nodes[0], run.rotation_end_s, 0.002 * DEG, 10.0)
+    return float(np.nanmean(times)) if np.isfinite(times).any() else float("nan")
+
+
+def tuning_convergence() -> list[Check]:
+    b5, b1 = _convergence_s(5.0), _convergence_s(1.0)
+    note_b5 = (
+        "the thesis's own continuous-mode convergence with B = 5 is ~46 s (sec 4.2.3 table, digest 5.4), close "
+        "to ours; fig 4.11b's 82.8 s was measured on a run whose timeline the extraction does not give"
+    )
+    return [
+        within_rel("firmware: bias convergence, B = 5 [s]", FIG_4_11B, b5, 82.8, 0.25, note_b5),
+        within_rel("firmware: bias convergence, B = 1 [s]", FIG_4_11B, b1, 177.98, 0.25),
+        within_factor("firmware: convergence ratio B=1 / B=5", FIG_4_11B, b1 / b5, 177.98 / 82.8, 2.0),
+    ]
+
+
+def _yaw_difference(scenario: Scenario) -> tuple[float, ChainRun]:
+    node_float = simulate_chain(scenario).nodes[0]
+    run_fixed = simulate_chain(scenario.with_overrides(**{"filter.implementation": "fixed"}))
+    node_fixed = run_fixed.nodes[0]
+    sel = node_float.t_s >= node_float.filter_start_s
+    diff = wrap_pi(node_fixed.yaw_est_rad[:, sel] - node_float.yaw_est_rad[:, sel])
+    return float(rad_to_deg(np.sqrt(np.mean(diff**2)))), run_fixed
+
+
+def fixed_vs_float() -> list[Check]:
+    windowed = _base().with_overrides(**{"schedule.mode": "windowed", "schedule.update_s": 20.0, "schedule.timeout_s": 30.0})
+    rms_cont, run_cont = _yaw_difference(_base())
+    rms_win, run_win = _yaw_difference(windowed)
+    saturations = sum(sum(n.firmware_overflows.values()) for run in (run_cont, run_win) for n in run.nodes)
+    return [
+        within_abs("firmware: fixed vs float RMS yaw difference, continuous [deg]", DIGEST_FIXED, rms_cont, 0.0, 0.01),
+        within_abs("firmware: fixed vs float RMS yaw difference, 20 s / 30 s windows [deg]", DIGEST_FIXED, rms_win, 0.0, 0.01),
+        within_abs(
+            "firmware: saturations of the default fixed formats on the lab profile",
+            DIGEST_FIXED,
+            float(saturations),
+            0.0,
+            0.0,
+            "rates up to 71 deg/s in Q16.16; a too-narrow format is shown to saturate in tests/firmware_model",
+        ),
+    ]
+
+
+CHECKS = [tuning_convergence, fixed_vs_float]

@@ -1,0 +1,21 @@
+"""The firmware validation checks (nodesim validate) compute what they claim, and the gap to the thesis's
+fig 4.11b B = 5 figure is recorded rather than hidden."""
+
+from nodesim.validation import checks_firmware
+
+
+def test_tuning_checks_record_b1_match_and_b5_gap():
+    """Thesis fig 4.11b: ~82.8 s (B = 5), ~177.98 s (B = 1).  Ours (lab stand-in models, 8 realizations):
+    B = 1 within 25 %; B = 5 near the thesis's separate continuous-mode figure (~46 s), i.e. 40-80 % of 82.8 s."""
+    b5, b1, ratio = checks_firmware.tuning_convergence()
+    assert b1.ok and abs(b1.ours / 177.98 - 1.0) <= 0.25
+    assert not b5.ok and 0.4 < b5.ours / 82.8 < 0.8 and b5.note
+    assert ratio.ours == b1.ours / b5.ours and ratio.ours > 1.0
+
+
+def test_fixed_filter_tracks_float_on_the_lab_profile():
+    """Digest 2.7 acceptance: RMS |psi_fixed - psi_float| < 0.01 deg, no saturation with default formats."""
+    cont, win, sat = checks_firmware.fixed_vs_float()
+    assert cont.ok and win.ok and sat.ok
+    assert 0.0 < cont.ours < 0.01 and 0.0 < win.ours < 0.01
+    assert sat.ours == 0.0
