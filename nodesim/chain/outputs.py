@@ -5,6 +5,8 @@
   (values are the surveying node's moving-averaged inclination/azimuth at the survey tick, thesis eqs
   1.1-1.3; sigma_A^2 = P_psipsi + sigma_f^2 / (M (g sin I)^2), sigma_I^2 = sigma_f^2 / (M g^2) with
   sigma_f the per-tick accelerometer noise and M the moving-average length);
+- ``ground_survey.csv``: the surveys of realization 0 that reached the ground station, in the CSV form of
+  ``nodesim uncertainty`` (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
 - ``yaw_error.png``: yaw error and bias estimate of every node against time (like thesis figs 4.14, 4.18).
 """
 
@@ -77,6 +79,19 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
     return {k: np.asarray(v)[order] for k, v in rows.items()}
 
 
+def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str, np.ndarray]:
+    """Realization ``r``'s received surveys in the ``nodesim uncertainty`` CSV columns."""
+    sel = (table["realization"] == r) & (table["received"] == 1)
+    return {
+        "md_m": table["md_m"][sel],
+        "inc_deg": table["inclination_deg"][sel],
+        "azi_deg": table["azimuth_deg"][sel],
+        "time_s": table["arrival_s"][sel],
+        "sigma_inc_deg": table["sigma_inclination_deg"][sel],
+        "sigma_azi_deg": table["sigma_azimuth_deg"][sel],
+    }
+
+
 def plot_chain_run(run: ChainRun, path: Path, title: str, r: int = 0) -> None:
     """Yaw error and bias estimate (with the true bias dashed) of every node, realization ``r``."""
     fig, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
@@ -115,6 +130,8 @@ def write_outputs(run: ChainRun, out: Path, title: str, per_realization: dict[st
     write_csv(out / "realizations.csv", {"realization": np.arange(R), **per_realization})
     write_csv(out / "timeseries.csv", timeseries_columns(run))
     if run.motion.stops:
-        write_csv(out / "surveys.csv", survey_columns(run))
+        table = survey_columns(run)
+        write_csv(out / "surveys.csv", table)
+        write_csv(out / "ground_survey.csv", ground_survey_columns(table))
     if plots:
         plot_chain_run(run, out / "yaw_error.png", title)

@@ -102,6 +102,10 @@ def test_ten_tube_field_scenario_end_to_end(tmp_path, capsys):
     true_inc = [float(r["true_inclination_deg"]) for r in r0]
     assert true_inc == sorted(true_inc) and 2.0 < true_inc[0] < true_inc[-1] < 6.0  # the building hole
     assert {"timeseries.csv", "yaw_error.png", "realizations.csv", "summary.json"} <= {p.name for p in out.iterdir()}
+    # the ground station's uncertainty command reads the received surveys as they are
+    assert main(["uncertainty", str(out / "ground_survey.csv"), "--tool", "mpu6500", "--json"]) == 0
+    stations = json.loads(capsys.readouterr().out)["stations"]
+    assert [s["md_m"] for s in stations] == pytest.approx([2.0 * i - 1.0 for i in range(1, 11)])
 
 
 def test_survey_table_holds_the_bottom_nodes_firmware_values_at_the_survey_tick():
