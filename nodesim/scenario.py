@@ -52,6 +52,11 @@ class ChainSection(_Section):
     clock_drift_ppm: float = Field(0.0, ge=-1000.0, le=1000.0, description="default clock rate error of every node")
     max_update_age_s: float = Field(1.5, gt=0.0, le=3600.0, description="older forwarded estimates are stale")
     offset_sigma_deg: float = Field(0.0, ge=0.0, le=90.0, description="node-to-node yaw offset sigma added to R")
+    rate_compensation: Literal["tick_mean", "extrapolated"] = Field(
+        "tick_mean",
+        description="rate advancing a forwarded estimate: the last tick's mean gyro rate (thesis eq 3.29) or that "
+        "rate extrapolated linearly to the middle of the transfer (removes the lag in rate ramps)",
+    )
     node: list[NodeClockSection] = Field(default_factory=list, description="per-node clock overrides")
 
 

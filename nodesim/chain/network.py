@@ -111,6 +111,7 @@ class Network:
         self.max_age_s = c.max_update_age_s
         self.processing_s = c.processing_s
         self.offset_sigma_rad = c.offset_sigma_deg * DEG
+        self.extrapolate_rate = c.rate_compensation == "extrapolated"
         self.motion = build_motion(scenario)
         self.encoder = EncoderReader.from_scenario(scenario, self.motion)
         R = scenario.simulation.realizations

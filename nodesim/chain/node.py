@@ -9,7 +9,10 @@ Every tick at the node's own clock (true time T[k] = offset + k dt / (1 + drift 
      the newest fresh packet from the node above (``select_reference``):
          psi_ref(T[k]) = psi_hat_{n-1}(t_read) + omega_hat_n (T[k] - t_read)       (thesis eq 3.29)
          R = P_{n-1} + ((T[k] - t_read) sigma_rate)^2 + sigma_off^2               (thesis digest 2.6 / 9.7)
-     with omega_hat_n the node's own bias-corrected gyro rate;
+     with omega_hat_n the node's own bias-corrected gyro rate (the mean over its last tick, i.e. the rate at
+     T[k] - dt/2; ``chain.rate_compensation = "extrapolated"`` extrapolates it linearly from the last two
+     ticks to the middle of the transfer, which removes the lag (dt - transfer)/2 x angular acceleration that
+     otherwise adds up hop by hop during rotation ramps);
   5. measurement update in the realizations that got a reference;
   6. transmit (yaw, P_psipsi, rate, seq, t_read = T[k]) to the next node down, only in ticks where the node
      applied an update (so one reference wave runs down the chain per update; in timeouts all nodes coast).
@@ -127,6 +130,10 @@ class ChainNode:
             return
         transfer = np.where(sel.have, t - sel.t_read_s, 0.0)
         omega = rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])
+        if self.net.extrapolate_rate and k > 0:
+            # the tick mean is the rate at T[k] - dt/2; extrapolate it to the transfer's middle, T[k] - transfer/2
+            slope = (self.sig.gyro_rad_s[:, k] - self.sig.gyro_rad_s[:, k - 1]) / self.net.dt_s
+            omega = omega + slope * 0.5 * (self.net.dt_s - transfer)
         var_in = np.where(sel.have, sel.yaw_var_rad2, 1.0)
         ref, var = forwarded_reference(sel.yaw_rad, var_in, omega, transfer, self.sig.gyro_white_sigma_rad_s,
                                        self.net.offset_sigma_rad)

@@ -12,6 +12,7 @@ from nodesim.chain import simulate_chain
 from nodesim.chain.motion import build_motion
 from nodesim.cli.main import main
 from nodesim.scenario import Scenario
+from nodesim.units import DEG, wrap_pi
 
 REPO = Path(__file__).resolve().parents[2]
 FIELD = REPO / "scenarios" / "field" / "drilling_10_tubes.toml"
@@ -120,3 +121,32 @@ def test_survey_table_holds_the_bottom_nodes_firmware_values_at_the_survey_tick(
     for r, station, azi, inc in zip(table["realization"], table["station"], table["azimuth_deg"], table["inclination_deg"]):
         assert azi == rad_to_deg(bottom.azimuth_rad[r, ticks[station]])
         assert inc == rad_to_deg(bottom.inclination_rad[r, ticks[station]])
+
+
+def test_rate_ramps_make_the_tick_mean_compensation_lag_hop_by_hop_and_extrapolation_shortens_it():
+    """Eq 3.29 advances a forwarded estimate by the receiver's tick-mean rate, which is the rate half a tick
+    ago: through a ramp (angular acceleration a) each hop adds about (dt - transfer)/2 x a x transfer, here
+    (0.526 - 0.06)/2 x 12 deg/s^2 x 0.06 s = 0.17 deg, for the whole ramp, so the error grows with the hop
+    count.  Extrapolating the rate linearly to the middle of the transfer removes the sustained lag; what is
+    left is a one-tick overshoot where a ramp ends.  Noise-free sensors except the gyro white noise (so the
+    filters follow their references)."""
+    quiet = {
+        "sensor.gyro_turn_on_bias_deg_s": 0.0, "sensor.gyro_residual_bias_deg_s": 0.0,
+        "sensor.gyro_scale_factor_error": 0.0, "sensor.gyro_bias_instability_deg_s": 0.0,
+        "sensor.accel_noise_ug_per_sqrt_hz": 0.0, "sensor.encoder_counts_per_rev": 1 << 24,
+    }
+
+    def errors(mode):
+        run = simulate_chain(drilling(5, **quiet, **{"chain.rate_compensation": mode}))
+        return [np.abs(wrap_pi(n.yaw_est_rad[0] - n.true_yaw_rad)[n.running]) / DEG for n in run.nodes]
+
+    lag, ext = errors("tick_mean"), errors("extrapolated")
+    worst = [float(e.max()) for e in lag]
+    assert worst[0] < 0.05  # the top node uses the encoder
+    assert all(b > a + 0.1 for a, b in zip(worst[1:], worst[2:]))  # grows ~0.17 deg per hop
+    assert 0.5 < worst[-1] / (0.17 * 4) < 1.5
+    rms = [float(np.sqrt(np.mean(e**2))) for e in lag]
+    rms_ext = [float(np.sqrt(np.mean(e**2))) for e in ext]
+    for a, b, ea, eb in zip(rms[1:], rms_ext[1:], lag[1:], ext[1:]):
+        assert b < 0.35 * a  # the bottom node: 0.022 vs 0.099 deg
+        assert (eb > 0.1).sum() < 0.3 * (ea > 0.1).sum()  # only the ramp-end ticks are left
