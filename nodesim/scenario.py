@@ -52,6 +52,11 @@ class ChainSection(_Section):
     clock_drift_ppm: float = Field(0.0, ge=-1000.0, le=1000.0, description="default clock rate error of every node")
     max_update_age_s: float = Field(1.5, gt=0.0, le=3600.0, description="older forwarded estimates are stale")
     offset_sigma_deg: float = Field(0.0, ge=0.0, le=90.0, description="node-to-node yaw offset sigma added to R")
+    forward: Literal["after_update", "every_tick"] = Field(
+        "after_update",
+        description="when a node forwards its estimate down: only in ticks where it applied an update, or every "
+        "tick its filter runs (its post-time-update estimate when it had no reference)",
+    )
     rate_compensation: Literal["tick_mean", "extrapolated"] = Field(
         "tick_mean",
         description="rate advancing a forwarded estimate: the last tick's mean gyro rate (thesis eq 3.29) or that "

@@ -112,6 +112,7 @@ class Network:
         self.processing_s = c.processing_s
         self.offset_sigma_rad = c.offset_sigma_deg * DEG
         self.extrapolate_rate = c.rate_compensation == "extrapolated"
+        self.forward_every_tick = c.forward == "every_tick"
         self.motion = build_motion(scenario)
         self.encoder = EncoderReader.from_scenario(scenario, self.motion)
         R = scenario.simulation.realizations

@@ -18,7 +18,9 @@ Every tick at the node's own clock (true time T[k] = offset + k dt / (1 + drift 
      applied an update (so one reference wave runs down the chain per update; in timeouts all nodes coast).
      The SimPy event is sent whenever a reference reached the node this tick (the schedule for the top node,
      a packet in the inbox for the others), so the event skeleton is the same for every realization; the
-     packet is ``valid`` only in the realizations that applied the update, and only they draw its loss;
+     packet is ``valid`` only in the realizations that applied the update, and only they draw its loss.
+     ``chain.forward = "every_tick"`` forwards every running tick instead (the post-time-update estimate
+     when there was no reference; thesis digest 5.3 (iv) reads the two-node experiment that way);
   7. the bottom node sends its survey up at a survey stop.
 Arrays are (R,): the event skeleton is shared by all realizations.
 """
@@ -97,8 +99,11 @@ class ChainNode:
                     self._forwarded_update(k, t)
                 self.running[k] = True
             self._record(k)
-            if self.opportunity and self.node_id < self.net.n_nodes:
-                self._transmit(k, t)
+            if self.node_id < self.net.n_nodes:
+                if self.net.forward_every_tick and self.running[k]:
+                    self._transmit(k, t, np.ones(self.yaw.shape[0], dtype=bool))
+                elif self.opportunity:
+                    self._transmit(k, t, self.applied[:, k])
             for stop in self.stops:
                 if stop.t_survey_s <= t < stop.end_s and not any(p.station == stop.station for p in self.net.sent):
                     self.net.send_survey(SurveyPacket(stop.station, stop.md_m, self.node_id, k, t,
@@ -147,7 +152,7 @@ class ChainNode:
         self.var[:, k] = self.kf.yaw_variance_rad2
         self.bias[:, k] = self.kf.bias_rad_s
 
-    def _transmit(self, k: int, t: float) -> None:
+    def _transmit(self, k: int, t: float, valid: np.ndarray) -> None:
         pkt = EstimatePacket(
             sender=self.node_id,
             seq=self.seq,
@@ -155,7 +160,7 @@ class ChainNode:
             yaw_rad=self.kf.yaw_rad.copy(),
             yaw_var_rad2=self.kf.yaw_variance_rad2.copy(),
             rate_rad_s=rate_estimate(self.kf, self.sig.gyro_rad_s[:, k]),
-            valid=self.applied[:, k].copy(),
+            valid=valid.copy(),
         )
         self.seq += 1
         below = self.net.nodes[self.index + 1]

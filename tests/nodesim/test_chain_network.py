@@ -124,3 +124,20 @@ def test_fixed_point_firmware_runs_the_chain_and_tracks_the_float_filter():
         rms = np.sqrt(np.mean(wrap_pi(a.yaw_est_rad[:, sel] - b.yaw_est_rad[:, sel]) ** 2)) / DEG
         assert 0.0 < rms < 0.01
         assert sum(b.firmware_overflows.values()) == 0 and a.firmware_overflows == {}
+
+
+def test_forward_every_tick_keeps_lower_nodes_updated_through_timeouts():
+    """chain.forward = "every_tick": a node forwards its post-time-update estimate when it had no reference,
+    so the node below is updated every tick while the top node coasts in the timeouts."""
+    over = {"chain.nodes": 2, "simulation.realizations": 2, "schedule.mode": "windowed", "schedule.update_s": 20.0,
+            "schedule.timeout_s": 30.0}
+    default = chain(**over)
+    every = chain(**over, **{"chain.forward": "every_tick"})
+    top, low = every.nodes
+    k = min(top.t_s.size, low.t_s.size)
+    both = top.running[:k] & low.running[:k]
+    assert not top.update_mask[:, :k][:, both].all()
+    assert low.update_mask[:, :k][:, both].all()
+    assert default.nodes[1].update_mask[:, both].mean() < 0.5
+    # the coasting estimate carries the top node's growing variance, so node 2's R grows with it
+    assert np.array_equal(default.nodes[0].yaw_est_rad, top.yaw_est_rad, equal_nan=True)
