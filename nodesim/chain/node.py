@@ -116,7 +116,7 @@ class ChainNode:
         yield env.timeout(link.delay_s)
         t_read = env.now
         yaw_enc, rate_enc = self.net.encoder.read(t_read)
-        lost_reply = link.draw_lost()
+        lost_reply = link.draw_lost(~lost_request)  # the encoder answers the requests it received
         yield env.timeout(link.delay_s)
         self.net.events += 2
         have = ~(lost_request | lost_reply)
