@@ -82,12 +82,12 @@ class MagneticMwdTool:
             bad = np.flatnonzero(~np.isfinite(arr))
             if bad.size:
                 raise NodesimError(f"magnetic tool: station {bad[0] + 1}: {name} is not finite")
+        e1, e2 = rng.standard_normal(2)  # interference draws first (drawn even when off: same stream)
         f = specific_force_body(inc, azi, yaw)
         f = f + self.accel_noise_m_s2 * rng.standard_normal(f.shape)
         b = field_body(self.reference, inc, azi, yaw)
         offset = 0.0
         if self.interference:
-            e1, e2 = rng.standard_normal(2)
             bh_t = self.reference.total_field_nt * 1e-9 * np.cos(self.reference.dip_deg * DEG)
             b = b.copy()
             b[..., 2] += e1 * INTERFERENCE_AXIAL_DEG * DEG * bh_t

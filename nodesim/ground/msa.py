@@ -34,6 +34,9 @@ MIN_STATIONS = 3  # 2 residuals per station, 6 unknowns
 TRUTH_FREE_CENTRE = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
 UNOBSERVABLE_RCOND = 1e-10
 """J^T J with lambda_min / lambda_max below this (cond > 1e10) has no usable 6-parameter solution."""
+ILL_CONDITIONED = 1e6
+"""cond(J^T J) (bias in uT) above which the result is flagged ill-conditioned: HV Surveys 3 (2.4e6) and 7
+(1.4e7), which HV's solver could not resolve, against 5e3-3.5e5 for Surveys 1, 2, 4, 5, 6."""
 
 
 @dataclass(frozen=True)
@@ -50,8 +53,8 @@ class SolverOptions:
 class MsaResult:
     """MSA outcome: theta (b_x, b_y, b_z [uT], s_x, s_y, s_z), cost L [uT^2] and diagnostics.
 
-    ``status`` is ``"ok"``, ``"unobservable"`` (J^T J rank deficient: theta is not determined by the data) or
-    ``"not_converged"``.  ``start_costs`` lists the final L of every start (the lowest is kept)."""
+    ``status`` is ``"ok"``, ``"ill_conditioned"`` (cond > ``ILL_CONDITIONED``: trust with care),
+    ``"unobservable"`` (J^T J rank deficient: theta is not determined by the data) or ``"not_converged"``.  ``start_costs`` lists the final L of every start (the lowest is kept)."""
 
     theta: np.ndarray
     cost: float
@@ -118,11 +121,6 @@ def _cost(theta, u, b_m, bh_ref, bv_ref) -> np.ndarray:
         return np.where(bad, np.inf, np.sum(r * r, axis=-1))
     r, _ = residuals_jacobian(theta, u, b_m, bh_ref, bv_ref)
     return np.sum(r * r, axis=-1)
-
-
-def _take(x, idx):
-    x = np.asarray(x)
-    return x[idx] if x.ndim and x.shape[0] > 1 and x.ndim >= 1 else x
 
 
 def solve_batch(theta0, u, b_m, bh_ref, bv_ref, options: SolverOptions = SolverOptions()):
@@ -231,6 +229,8 @@ def msa(
     best = int(np.argmin(cost))
     cond, gnorm = condition_numbers(theta[best : best + 1], u, b_m, reference.bh_ut, reference.bv_ut)
     status = "ok" if conv[best] else "not_converged"
+    if status == "ok" and cond[0] > ILL_CONDITIONED:
+        status = "ill_conditioned"
     if not cond[0] < 1.0 / UNOBSERVABLE_RCOND:
         status = "unobservable"
     return MsaResult(theta[best], float(cost[best]), int(iters[best]), bool(conv[best]), float(cond[0]), float(gnorm[0]), status, cost)

@@ -138,7 +138,7 @@ def run_monte_carlo(
 ) -> MonteCarloResult:
     """Monte Carlo of MSA + MCM on one modelled survey (vectorised over each chunk of replications).
 
-    Results depend only on (inputs, seed, chunk): the random numbers are drawn chunk by chunk."""
+    Results depend only on (inputs, seed): all random numbers are drawn before the chunked solve."""
     truth = np.asarray(truth, dtype=float)
     if truth.shape != (N_PARAMS,) or np.any(truth[3:] <= 0):
         raise NodesimError("magnetic Monte Carlo: truth must be (b_x, b_y, b_z, s_x, s_y, s_z) with s > 0")
@@ -151,16 +151,19 @@ def run_monte_carlo(
     uncorrected = final_positions(md, raw.inc_rad, raw.azi_rad)
     rng = np.random.default_rng(config.seed)
     m_total, k = config.replications, config.n_starts
+    # every random number is drawn up front, so the result does not depend on the chunk size
+    noise_all = rng.standard_normal((m_total,) + b_clean.shape) * (config.noise_nt * 1e-3)
+    b_star_all = reference.b_total_ut + rng.standard_normal(m_total) * (config.sigma_b_nt * 1e-3)
+    dip_star_all = (reference.dip_deg + rng.standard_normal(m_total) * config.sigma_dip_deg) * DEG
+    starts_all = truth + rng.uniform(-config.start_spread, config.start_spread, size=(m_total, k, N_PARAMS))
+    starts_all[..., 3:] = np.maximum(starts_all[..., 3:], 0.05)
     thetas, costs, convs, finals = [], [], [], []
     bar = _progress(m_total, progress)
     done = 0
     while done < m_total:
         m = min(config.chunk, m_total - done)
-        noise = rng.standard_normal((m,) + b_clean.shape) * (config.noise_nt * 1e-3)
-        b_star = reference.b_total_ut + rng.standard_normal(m) * (config.sigma_b_nt * 1e-3)
-        dip_star = (reference.dip_deg + rng.standard_normal(m) * config.sigma_dip_deg) * DEG
-        starts = truth + rng.uniform(-config.start_spread, config.start_spread, size=(m, k, N_PARAMS))
-        starts[..., 3:] = np.maximum(starts[..., 3:], 0.05)
+        sl = slice(done, done + m)
+        noise, b_star, dip_star, starts = noise_all[sl], b_star_all[sl], dip_star_all[sl], starts_all[sl]
         b_m = clean_m + noise
         theta, cost, _, conv = solve_batch(
             starts.reshape(m * k, N_PARAMS),

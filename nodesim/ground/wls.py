@@ -87,9 +87,10 @@ def wls_estimate(
     p = np.diag([sigma_bias_ut**2] * 3 + [sigma_scale**2] * 3)
     r_var = noise_ut**2
     dy = (b_m - b_c).ravel()
-    s = h @ p @ h.T + r_var * np.eye(h.shape[0])
-    dx = p @ h.T @ np.linalg.solve(s, dy)
+    # information form U H^T R^-1 dy: equal to the gain form P H^T (H P H^T + R)^-1 dy (matrix inversion
+    # lemma, checked in the tests) but a 6x6 solve, well conditioned even for a loose prior
     cov = np.linalg.inv(h.T @ h / r_var + np.linalg.inv(p))
+    dx = cov @ (h.T @ dy) / r_var
     return WlsResult(dx, cov)
 
 
