@@ -57,7 +57,8 @@ def test_msa_removes_sensor_scale_and_bias():
     raw = np.abs(err_deg(s.azi_rad, AZI)).max()
     corrected = np.abs(err_deg(s.azi_msa_rad, AZI)).max()
     assert raw > 0.3 and corrected < raw / 20  # 3 nT noise leaves ~0.03 deg
-    np.testing.assert_allclose(s.msa.scale, [1.01, 0.98, 1.005], atol=2e-4)
+    # 3 nT noise: HV Table 9 gives 1.96-sigma scale-z spreads of ~5e-4 for similar surveys
+    np.testing.assert_allclose(s.msa.scale, [1.01, 0.98, 1.005], atol=1e-3)
 
 
 def test_without_msa_and_deterministic():
