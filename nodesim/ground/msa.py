@@ -28,6 +28,9 @@ import numpy as np
 
 from nodesim.errors import NodesimError
 from nodesim.ground.magnetic_survey import FieldReference, check_triads, correct, survey_from_readings
+from nodesim.ground.survey import make_survey
+from nodesim.ground.wellpath import Wellpath, wellpath
+from nodesim.units import DEG
 
 N_PARAMS = 6
 MIN_STATIONS = 3  # 2 residuals per station, 6 unknowns
@@ -239,3 +242,10 @@ def msa(
 def corrected_survey(g, b_m, theta):
     """Survey angles after applying the MSA correction (HV 3.2 then 3.7-3.9)."""
     return survey_from_readings(g, correct(b_m, theta))
+
+
+def corrected_wellpath(md_m, g, b_m, theta, method: str = "minimum_curvature") -> Wellpath:
+    """Corrected survey -> positions with the project's wellpath (HV 3.10-3.11: MCM from the first station)."""
+    s = corrected_survey(g, b_m, theta)
+    survey = make_survey(md_m, s.inc_rad / DEG, s.azi_rad / DEG, where="MSA-corrected survey")
+    return wellpath(survey, method)

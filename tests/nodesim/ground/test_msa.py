@@ -7,7 +7,15 @@ from hypothesis import strategies as st
 
 from nodesim.errors import NodesimError
 from nodesim.ground.magnetic_survey import FieldReference, apply_errors, params_array, tool_readings
-from nodesim.ground.msa import ILL_CONDITIONED, condition_numbers, corrected_survey, msa, residuals_jacobian, solve_batch
+from nodesim.ground.msa import (
+    ILL_CONDITIONED,
+    condition_numbers,
+    corrected_survey,
+    corrected_wellpath,
+    msa,
+    residuals_jacobian,
+    solve_batch,
+)
 from nodesim.ground.msa_surveys import SURVEYS, trajectory
 
 REF = FieldReference(51.0, 72.0)
@@ -149,3 +157,13 @@ def test_condition_numbers_batched_shape():
     u = g / np.linalg.norm(g, axis=1, keepdims=True)
     cond, grad = condition_numbers(np.repeat(TRUTH[None], 3, axis=0), u, b_m, REF.bh_ut, REF.bv_ut)
     assert cond.shape == (3,) and np.all(grad < 1e-9)
+
+
+def test_corrected_positions_return_to_the_modelled_well():
+    """After MSA on noise-free data the MCM final position equals the modelled one (digest 12: HV S4)."""
+    t, g, _, b_m = readings("hv4")
+    res = msa(g, b_m, REF, n_starts=4, seed=0)
+    path = corrected_wellpath(t.md_m, g, b_m, res.theta)
+    np.testing.assert_allclose(path.nev_m[-1], [1530.73, 5712.75, 3521.06], atol=0.005)
+    raw = corrected_wellpath(t.md_m, g, b_m, np.array([0, 0, 0, 1.0, 1.0, 1.0]))
+    assert np.linalg.norm(raw.nev_m[-1, :2] - path.nev_m[-1, :2]) > 10.0  # uncorrected survey is metres off

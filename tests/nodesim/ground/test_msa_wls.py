@@ -102,3 +102,14 @@ def test_bad_input():
     t = trajectory("sv2")
     with pytest.raises(NodesimError, match="propagation"):
         covariance_position(t.md_m, t.inc_deg, t.azi_deg, np.ones(6), REF, "G")
+
+
+def test_wls_sigmas_propagate_to_position():
+    """Item 4: WLS parameter sigmas through the covariance method; systematic > random, both finite."""
+    p = PUB["sv_wls_table7"]["sv2"]
+    t, b = clean("sv2")
+    res = wls_estimate(b, apply_errors(b, params_array(p["truth_scale"], p["truth_bias_ut"])))
+    r = covariance_position(t.md_m, t.inc_deg, t.azi_deg, res.sigma, REF, "R")
+    s = covariance_position(t.md_m, t.inc_deg, t.azi_deg, res.sigma, REF, "S")
+    assert r.shape == (len(t), 3, 3) and np.all(np.isfinite(s))
+    assert s[-1, 0, 0] > r[-1, 0, 0] > 0
