@@ -5,7 +5,7 @@ Inputs are the true attitude of each survey station in the sensor package's fram
 yaw of :func:`nodesim.sensors.magnetometer.body_to_neu`) and the sensor models of that package
 (:class:`GeomagneticReference`, :class:`MagnetometerModel`); nothing here is a second sensor model.
 
-Magnetic interference (ISCWSA, as quoted in the drill-string thesis section 4.6: "of the order of
+Magnetic interference (ISCWSA, as quoted in the drill-string thesis sec 4.2.4, Fig 4.23: "of the order of
 0.25 deg + 0.6 deg x sinI x sinA"): per run one draw e1, e2 ~ N(0, 1) gives
 
 * an axial drill-string field B_axial = e1 * 0.6 deg * B_h along the tool axis (a z bias: to first order

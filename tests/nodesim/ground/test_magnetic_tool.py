@@ -29,7 +29,7 @@ def test_error_free_tool_is_exact_with_and_without_msa():
 
 
 def test_interference_term_formula():
-    """ISCWSA term quoted in the drill-string thesis 4.6: 0.25 + 0.6 sinI sinA deg (worst E/W, horizontal)."""
+    """ISCWSA term quoted in the drill-string thesis 4.2.4 (Fig 4.23): 0.25 + 0.6 sinI sinA deg (worst E/W, horizontal)."""
     assert interference_sigma_deg(90 * DEG, 90 * DEG) == pytest.approx(0.85)
     assert interference_sigma_deg(0.0, 90 * DEG) == pytest.approx(0.25)
     assert interference_sigma_deg(60 * DEG, 0.0) == pytest.approx(0.25)
