@@ -8,9 +8,9 @@ yaw of :func:`nodesim.sensors.magnetometer.body_to_neu`) and the sensor models o
 Magnetic interference (ISCWSA, as quoted in the drill-string thesis sec 4.2.4, Fig 4.23: "of the order of
 0.25 deg + 0.6 deg x sinI x sinA"): per run one draw e1, e2 ~ N(0, 1) gives
 
-* an axial drill-string field B_axial = e1 * 0.6 deg * B_h along the tool axis (a z bias: to first order
-  it turns the azimuth by -B_axial sinI sinA / B_h, the ISCWSA MBZ/AMIL weighting, i.e. e1 * 0.6 deg sinI sinA),
-  which MSA can estimate because it is a bias on one sensor axis;
+* an axial drill-string field B_axial = e1 * 0.6 deg * B_h along body z (up-hole): to first order it turns
+  the azimuth by +B_axial sinI sinA / B_h (the ISCWSA MBZ/AMIL weighting, written for z downhole with the
+  opposite sign), i.e. e1 * 0.6 deg sinI sinA; MSA can estimate it because it is a bias on one sensor axis;
 * a residual azimuth offset e2 * 0.25 deg that no sensor calibration removes.
 
 :func:`interference_sigma_deg` gives the quoted 1-sigma term itself, e.g. as the survey's per-station
