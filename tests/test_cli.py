@@ -39,7 +39,7 @@ def test_each_command_help_describes_its_options(command, capsys):
 
 
 def test_pending_command_says_so_and_exits_2(capsys):
-    code = main(["report", "somewhere"])
+    code = main(["replay", "some.log", "--firmware", "fw.toml"])
     assert code == 2
     assert "not implemented yet" in capsys.readouterr().err
 
