@@ -10,8 +10,10 @@ workers over that with 1 (1.0 when the workers do not compete for the cores).
 ``executor_overhead_fraction`` (local pool, 1 worker) and ``dask_executor_overhead_fraction`` (Dask
 LocalCluster, 1 single-threaded worker process): per-run wall time of a campaign of ``N_OVERHEAD`` synthetic
 2 s runs (``nodesim.sweep.tasks.busy_run``: keeps one core busy for 2 s, no simulation) minus the 2 s run
-timed by a direct call, divided by that direct time.  Goal < 0.05.  Start-up of the pool/cluster is included
-and shared by the runs.
+timed by a direct call, divided by that direct time.  Goal < 0.05.  This is the steady-state per-run cost
+(task shipping, result return, the campaign store's write per run): the one-time start-up of the pool or
+cluster is measured apart by a 1-run warm-up campaign (``executor_local_startup_s``,
+``executor_dask_startup_s``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import tempfile
+import time
 from importlib import resources
 from pathlib import Path
 
@@ -80,18 +83,32 @@ def sweep_speedup() -> dict:
     }
 
 
+def _warm_then_timed(spec, make_executor, tasks) -> tuple[float, float]:
+    """(start-up s, timed s): creating the executor plus a 1-run warm-up campaign, then the timed campaign."""
+    warm = [dataclasses.replace(tasks[0], payload={"busy_s": 0.0})]
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        with make_executor() as executor:
+            run_campaign(spec, Path(tmp) / "w", executor, quiet=True, tasks=warm, run_fn=busy_run)
+            startup = time.perf_counter() - t0
+            timed = best_time_s(lambda: run_campaign(spec, Path(tmp) / "c", executor, quiet=True, tasks=tasks, run_fn=busy_run), repeat=1)
+    return startup, timed
+
+
 def executor_overhead() -> dict:
     spec = _spec(N_OVERHEAD, [5.0])
     tasks = [dataclasses.replace(t, payload={"busy_s": RUN_S}) for t in spec.plan()]
     direct = best_time_s(lambda: busy_run(tasks[0]), repeat=1)
-    local = _campaign_s(spec, lambda: LocalExecutor(workers=1), tasks, busy_run)
-    dask = _campaign_s(spec, lambda: DaskExecutor(workers=1, processes=True), tasks, busy_run)
+    local_start, local = _warm_then_timed(spec, lambda: LocalExecutor(workers=1), tasks)
+    dask_start, dask = _warm_then_timed(spec, lambda: DaskExecutor(workers=1, processes=True), tasks)
     return {
         "executor_overhead_fraction": (local / N_OVERHEAD - direct) / direct,
         "dask_executor_overhead_fraction": (dask / N_OVERHEAD - direct) / direct,
         "executor_direct_2s_run_s": direct,
         "executor_local_3_runs_s": local,
         "executor_dask_3_runs_s": dask,
+        "executor_local_startup_s": local_start,
+        "executor_dask_startup_s": dask_start,
     }
 
 
