@@ -3,7 +3,8 @@
 Reads only the run-directory contract (``manifest.json``, ``summary.json``, CSV tables, PNG plots), never
 the simulation's internals:
 
-- headline metrics from ``summary.json`` (flattened; timing shown apart);
+- headline metrics from ``summary.json`` (flattened; timing shown apart), and the per-node ones
+  (``node<k>_<metric>``) plotted along the chain when the run has more than one node;
 - yaw error and bias estimate per node against time, from ``timeseries.csv`` (a ``node`` column means one
   line per node; without it the run has one node);
 - survey stations with their horizontal uncertainty ellipses, from ``ground_survey.csv`` (the
@@ -16,6 +17,7 @@ A section whose data the run does not have says so instead of showing an empty p
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import matplotlib
@@ -59,6 +61,28 @@ def _summary_section(page: Page, summary: dict) -> None:
     timing = summary.get("timing", {})
     if timing:
         page.para("timing: " + ", ".join(f"{k} = {v:.3g} s" for k, v in timing.items() if isinstance(v, (int, float))))
+
+
+def _chain_section(page: Page, summary: dict) -> None:
+    """Per-node headline metrics (summary keys ``node<k>_<metric>``) against the node's place in the chain."""
+    per_node: dict[str, dict[int, float]] = {}
+    for key, value in summary.items():
+        m = re.fullmatch(r"node(\d+)_(.+)", key)
+        if m and isinstance(value, (int, float)) and not isinstance(value, bool) and not m.group(2).endswith("_p95"):
+            per_node.setdefault(m.group(2), {})[int(m.group(1))] = float(value)
+    wanted = [k for k in ("rms_azimuth_error_deg", "rms_yaw_error_deg", "mean_update_age_s") if len(per_node.get(k, {})) > 1]
+    if not wanted:
+        return
+    page.heading("Metrics along the chain")
+    fig, axes = plt.subplots(len(wanted), 1, figsize=(8, 2.6 * len(wanted)), sharex=True, squeeze=False)
+    for ax, key in zip(axes[:, 0], wanted):
+        nodes = sorted(per_node[key])
+        ax.plot(nodes, [per_node[key][n] for n in nodes], "o-", ms=4, lw=1.0)
+        ax.set_ylabel(key, fontsize=8)
+        ax.grid(True, lw=0.3)
+    axes[-1, 0].set_xlabel("node (1 = top of the chain)")
+    fig.tight_layout()
+    page.figure(fig, "per-node headline metrics, mean over realizations (summary.json node<k>_* keys)")
 
 
 def _yaw_section(page: Page, ts: pd.DataFrame | None) -> None:
@@ -151,6 +175,7 @@ def run_page(run_dir: Path, tool: str = "mpu6500", **_ignored) -> tuple[Page, di
     ident = [[k, manifest.get(k)] for k in ("nodesim_version", "git_commit", "root_seed", "started_utc", "scenario_sha256")]
     page.table(["run", "value"], [["directory", str(run_dir)]] + ident)
     _summary_section(page, summary)
+    _chain_section(page, summary)
     _yaw_section(page, _read_csv(run_dir / "timeseries.csv"))
     _survey_section(page, run_dir, tool)
     _link_section(page, run_dir)

@@ -161,3 +161,13 @@ def test_report_of_a_directory_that_is_neither_exits_2(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     assert "neither a run directory" in capsys.readouterr().err
     assert main(["report", str(tmp_path / "missing")]) == 2
+
+
+def test_run_report_of_a_two_node_chain_plots_per_node_metrics(tmp_path):
+    lab = Path(__file__).resolve().parents[3] / "scenarios" / "lab" / "two_nodes_0p8hz.toml"
+    out = tmp_path / "two"
+    assert main(["run", str(lab), "--out", str(out), "--json"]) == 0
+    info = write_report(out)
+    c = parse_report(Path(info["report"]))
+    assert "Metrics along the chain" in c.headings
+    assert any("2 of 2 node(s)" in i["alt"] for i in c.images)

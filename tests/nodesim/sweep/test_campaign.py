@@ -2,6 +2,7 @@
 
 import dataclasses
 import io
+import json
 import os
 import signal
 import subprocess
@@ -223,3 +224,17 @@ def test_cli_errors_exit_2(make_sweep, tmp_path, capsys):
     assert main(["sweep", str(ok), "--scheduler", "tcp://127.0.0.1:1"]) == 2
     assert "--scheduler needs --executor dask" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_cli_sweep_on_a_dask_localcluster_matches_the_local_pool(make_sweep, tmp_path, capsys):
+    from nodesim.cli.main import main
+
+    sweep = make_sweep('seeds = 2\nmetrics = ["rms_azimuth_error_deg"]\n')
+    assert main(["sweep", str(sweep), "--out", str(tmp_path / "d"), "--executor", "dask", "--workers", "1", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["planned"], summary["ok"]) == (2, 2)
+    assert main(["sweep", str(sweep), "--out", str(tmp_path / "l"), "--workers", "1", "--quiet"]) == 0
+    capsys.readouterr()
+    d, l = (pd.read_parquet(tmp_path / x / "results.parquet") for x in ("d", "l"))
+    pdt.assert_frame_equal(_deterministic(d), _deterministic(l))
+    assert read_manifest(tmp_path / "d")["executor"]["executor"] == "dask"
