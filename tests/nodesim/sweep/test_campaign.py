@@ -238,3 +238,14 @@ def test_cli_sweep_on_a_dask_localcluster_matches_the_local_pool(make_sweep, tmp
     d, l = (pd.read_parquet(tmp_path / x / "results.parquet") for x in ("d", "l"))
     pdt.assert_frame_equal(_deterministic(d), _deterministic(l))
     assert read_manifest(tmp_path / "d")["executor"]["executor"] == "dask"
+
+
+def test_dask_worker_that_dies_is_replaced_and_its_run_finishes(make_sweep, tmp_path):
+    """A Dask worker process killed mid-run (os._exit): the nanny restarts it and the run is retried."""
+    spec = load_sweep(make_sweep("seeds = 3\n"))
+    marker = tmp_path / "dask-crashed-once"
+    tasks = _synthetic_tasks(spec, **{"p00000-s001": {"crash_marker": str(marker)}})
+    with DaskExecutor(workers=1, processes=True) as ex:
+        res = run_campaign(spec, tmp_path / "c", ex, quiet=True, run_fn=busy_run, tasks=tasks)
+    assert marker.exists()
+    assert res.ok == 3 and res.failed == 0
