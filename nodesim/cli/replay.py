@@ -46,6 +46,8 @@ def register(sub) -> None:
     p.add_argument("--max-gap", type=float, default=1.0, metavar="S", help="longest allowed gap between samples (default 1 s)")
     p.add_argument("--noise", choices=["config", "allan"], default="config",
                    help="gyro noise of the filter: from the configuration or from the log's Allan deviation")
+    p.add_argument("--allan-slope-tolerance", type=float, default=0.05, metavar="D",
+                   help="with --noise allan: points within D of slope -1/2 form the ARW line (default 0.05)")
     p.add_argument("--tolerance", action="append", default=[], metavar="QUANTITY=VALUE",
                    help="divergence threshold per recorded output (default 0: bit-identical), e.g. fw_yaw=1e-3")
     p.add_argument("--no-plots", action="store_true", help="skip yaw_error.png")
@@ -58,7 +60,7 @@ def run(args) -> int:
 
     tolerances = dict(_tolerance(t) for t in args.tolerance)
     outcome = replay(args.log, args.firmware, args.schedule, args.out, repair=args.repair, max_gap_s=args.max_gap,
-                     noise=args.noise, tolerances=tolerances, plots=not args.no_plots)
+                     noise=args.noise, allan_slope_tolerance=args.allan_slope_tolerance, tolerances=tolerances, plots=not args.no_plots)
     s = outcome.summary
     if args.json:
         sys.stdout.write(dumps_json(s).decode())

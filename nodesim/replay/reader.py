@@ -238,7 +238,7 @@ def read_log(path, repair: bool = False, max_gap_s: float = DEFAULT_MAX_GAP_S) -
             probs.found(i, f"column {name} = {x[i]:g} counts is outside the int{meta.adc_bits} range [{lo}, {hi}]")
         if frac.any():
             i = int(np.argmax(frac))
-            probs.found(i, f"column {name} = {x[i]!r} is not an integer count")
+            probs.found(i, f"column {name} = {float(x[i])!r} is not an integer count")
         probs.count("clipped_counts", out.sum())
         probs.count("rounded_counts", frac.sum())
         data[name] = np.where(keep, np.clip(np.round(x), lo, hi), x)
@@ -277,7 +277,7 @@ def read_log(path, repair: bool = False, max_gap_s: float = DEFAULT_MAX_GAP_S) -
         for mask, key, what in ((back, "dropped_backward_time", "time goes back"), (dup, "dropped_duplicate_time", "duplicated time")):
             if mask.any():
                 j = int(np.argmax(mask))
-                probs.found(int(idx[j]), f"{what} on node {int(nid)}: t_s = {tn[j]!r} after {running[j - 1]!r}; "
+                probs.found(int(idx[j]), f"{what} on node {int(nid)}: t_s = {float(tn[j])!r} after {float(running[j - 1])!r}; "
                                          "allowed strictly increasing times per node")
             probs.count(key, mask.sum())
         keep[idx[back | dup]] = False
@@ -286,8 +286,8 @@ def read_log(path, repair: bool = False, max_gap_s: float = DEFAULT_MAX_GAP_S) -
         gaps = np.flatnonzero(step > max_gap_s)
         if gaps.size:
             j = int(gaps[0]) + 1
-            probs.found(int(kept[j]), f"gap of {step[j - 1]:.6g} s on node {int(nid)} (t_s {t[kept[j - 1]]!r} -> "
-                                      f"{t[kept[j]]!r}); allowed <= max_gap_s = {max_gap_s:g} s")
+            probs.found(int(kept[j]), f"gap of {step[j - 1]:.6g} s on node {int(nid)} (t_s {float(t[kept[j - 1]])!r} -> "
+                                      f"{float(t[kept[j]])!r}); allowed <= max_gap_s = {max_gap_s:g} s")
             gap_rows.extend(kept[gaps + 1].tolist())
         probs.count("gaps", gaps.size)
     if not repair:

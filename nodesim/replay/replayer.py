@@ -106,16 +106,17 @@ def parse_schedule(text: str, setup: FirmwareSetup) -> UpdateSchedule | None:
     raise NodesimError(f"--schedule {text!r}: allowed {SCHEDULE_HELP} (UPDATE_S > 0, TIMEOUT_S >= 0, 0 < RATE_HZ <= 1000)")
 
 
-def allan_noise_of(node: NodeLog, window_s: float | None = None) -> AllanNoise:
+def allan_noise_of(node: NodeLog, window_s: float | None = None, slope_tolerance: float = 0.05) -> AllanNoise:
     """ARW and bias instability of the node's z gyro from the overlapping Allan deviation
-    (:mod:`nodesim.allan`) of its samples, over the first ``window_s`` seconds (all samples if None)."""
+    (:mod:`nodesim.allan`) of its samples, over the first ``window_s`` seconds (all samples if None);
+    ``slope_tolerance``: how far from -1/2 a point of the ARW line may be (:func:`nodesim.allan.read_noise`)."""
     t = node.t_s
     sel = slice(None) if window_s is None else t < t[0] + window_s
     rate, ts = node.gyro_rad_s[sel, 2], t[sel]
     if rate.size < 100:
         raise NodesimError(f"Allan noise: node {node.node_id} has {rate.size} gyro samples in the window; allowed >= 100")
     dt = float(np.median(np.diff(ts)))
-    return read_noise(overlapping_adev(rate, dt))
+    return read_noise(overlapping_adev(rate, dt), slope_tolerance=slope_tolerance)
 
 
 @dataclass(frozen=True)
@@ -212,15 +213,16 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
     yaw, pvar, bias = np.full(K, np.nan), np.full(K, np.nan), np.full(K, np.nan)
     applied, running = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
     filter_start = t_log + setup.bias_window_s
+    no_enc = node.encoder_rad is None
     bias_sum, bias_n, kf = np.zeros(1), 0, None
     for k in range(K):
         if ticks[k] < filter_start:
             bias_sum += gyro[k : k + 1]
             bias_n += 1
-            yaw[k] = enc[k]
+            yaw[k] = 0.0 if no_enc else enc[k]
             continue
         if kf is None:
-            y0 = enc[k] if np.isfinite(enc[k]) else 0.0  # no encoder: the yaw is relative to the start
+            y0 = 0.0 if no_enc else enc[k]  # no encoder: the yaw is relative to the start
             kf = make_yaw_filter(setup.implementation, setup.filter_config, 1, np.array([y0]),
                                  bias_sum / bias_n if bias_n else 0.0)
         else:

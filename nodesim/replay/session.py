@@ -35,6 +35,7 @@ def replay(
     repair: bool = False,
     max_gap_s: float = DEFAULT_MAX_GAP_S,
     noise: str = "config",
+    allan_slope_tolerance: float = 0.05,
     tolerances: dict[str, float] | None = None,
     plots: bool = True,
     write: bool = True,
@@ -43,7 +44,8 @@ def replay(
 
     ``schedule``: None = ``recorded`` when the log records its updates, else ``config``.
     ``noise``: ``config`` (the configuration's gyro noise) or ``allan`` (Allan deviation of the top node's
-    z-gyro samples inside the static bias window, or of all its samples when that window holds < 100).
+    z-gyro samples inside the static bias window, or of all its samples when that window holds < 100;
+    ``allan_slope_tolerance`` widens the slope band of the ARW line for short or disturbed records).
     ``tolerances``: per recorded quantity (``fw_yaw`` ...), in the comparison's report units; default 0.
     """
     started = datetime.now(timezone.utc)
@@ -54,7 +56,8 @@ def replay(
     if noise == "allan":
         top = log.nodes[0]
         in_window = int((top.t_s < top.t_s[0] + scenario.motion.stationary_s).sum())
-        noise_params = allan_noise_of(top, scenario.motion.stationary_s if in_window >= 100 else None)
+        noise_params = allan_noise_of(top, scenario.motion.stationary_s if in_window >= 100 else None,
+                                      allan_slope_tolerance)
     elif noise != "config":
         from nodesim.errors import NodesimError
 
