@@ -95,9 +95,12 @@ def plot_replay(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], path: P
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     for node, rep in zip(logs, reps):
         ref, kind = yaw_reference(node, rep)
-        axes[0].plot(rep.t_s, rad_to_deg(wrap_pi(rep.yaw_rad - ref)), lw=0.8, label=f"node {rep.node_id} (vs {kind})")
+        if kind is None:  # nothing to measure against: show the free-running yaw itself
+            axes[0].plot(rep.t_s, rad_to_deg(rep.yaw_rad), lw=0.8, label=f"node {rep.node_id}: yaw estimate (no reference)")
+        else:
+            axes[0].plot(rep.t_s, rad_to_deg(wrap_pi(rep.yaw_rad - ref)), lw=0.8, label=f"node {rep.node_id}: error vs {kind}")
         axes[1].plot(rep.t_s, rad_to_deg(rep.bias_rad_s), lw=0.8, label=f"node {rep.node_id}")
-    axes[0].set_ylabel("yaw error [deg]")
+    axes[0].set_ylabel("yaw error or estimate [deg]")
     axes[1].set_ylabel("z-gyro bias estimate [deg/s]")
     axes[1].set_xlabel("log time [s]")
     for ax in axes:

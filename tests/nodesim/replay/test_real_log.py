@@ -85,3 +85,25 @@ def test_free_running_yaw_after_the_turn_drifts_faster_than_its_sigma(outcome):
     sigma = np.degrees(np.sqrt(rep.yaw_var_rad2[rep.running]))
     assert np.all(np.diff(sigma) > 0)  # no reference: P only grows
     assert abs(drift) * (rep.t_s[k2] - rep.t_s[k1]) > 3.0 * sigma[-1]
+
+
+def test_cli_replay_of_the_fixture_and_a_malformed_copy(tmp_path, capsys):
+    from nodesim.cli.main import main
+
+    assert main(["replay", str(LOG), "--firmware", str(CONFIG), "--out", str(tmp_path / "ok"), "--json"]) == 0
+    import json
+
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["schedule"] == "none" and summary["repairs"] == {} and "comparison" not in summary
+    assert (tmp_path / "ok" / "yaw_error.png").is_file()
+    lines = LOG.read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("node,")) + 1
+    lines[first + 100] = lines[first + 99]  # a duplicated sample
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    assert main(["replay", str(bad), "--firmware", str(CONFIG), "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"line {first + 101}: duplicated time on node 1" in err
+    assert not (tmp_path / "bad").exists()
+    assert main(["replay", str(bad), "--firmware", str(CONFIG), "--out", str(tmp_path / "fixed"), "--repair", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["repairs"] == {"dropped_duplicate_time": 1}
