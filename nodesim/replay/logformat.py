@@ -11,14 +11,14 @@ required columns
                                  only when the header says ``encoder_unit = absent``)
 optional columns
     ``node``                     node id (1 = top); a log without it is a single-node log (node 1)
-    ``temperature_c``            sensor temperature
-    ``mag_x``, ``mag_y``, ``mag_z``          magnetometer, unit ``mag_unit`` (carried, not used by the yaw filter)
+    ``temperature_c``            sensor temperature (read, not used by the yaw filter)
+    ``mag_x``, ``mag_y``, ``mag_z``          magnetometer, unit ``mag_unit`` (read, not used by the yaw filter)
     ``tick``                     1 on the rows where the recorded firmware ticked (its tick times); without it
                                  the replay ticks at the configured firmware rate from the node's first sample
     ``ref_update``               1 where the firmware applied a reference update at that tick (recorded schedule)
     ``ref_yaw``, ``ref_var``     the reference yaw (``angle_unit``) and its variance (``angle_unit``^2) the
                                  firmware used at that update (delay-compensated, thesis eq 3.29)
-    ``seq``                      reference-update sequence number (carried through to the outputs)
+    ``seq``                      reference-update sequence number (copied to the replay's timeseries.csv)
     ``fw_yaw``, ``fw_yaw_var``, ``fw_bias``, ``fw_inclination``, ``fw_azimuth``
                                  what the real firmware computed at its ticks (``angle_unit``, ``angle_unit``^2,
                                  ``angle_unit``/s; inclination and azimuth moving-averaged as transmitted);
@@ -146,7 +146,7 @@ def meta_from_dict(raw: dict, where: str) -> LogMeta:
             else:
                 values[key] = str(value)
         except (TypeError, ValueError):
-            raise NodesimError(f"{where}: header {key} = {value!r} is not a {kind.split(' ')[0]}") from None
+            raise NodesimError(f"{where}: header {key} = {value!r} is not a valid {kind.split(' ')[0]}") from None
     try:
         return LogMeta(**values)
     except NodesimError as err:

@@ -2,7 +2,7 @@
 
 - ``timeseries.csv``: one row per node and firmware tick: update, yaw estimate and sigma, bias estimate,
   moving-averaged inclination and azimuth, and the yaw error against the log's truth (``true_yaw``) or,
-  without it, against the encoder reading at the tick;
+  without it, against the encoder reading at the tick; the log's ``seq`` at the tick when it has one;
 - ``comparison.csv`` (logs with firmware outputs): per node, tick and recorded quantity, model - recorded;
 - ``summary.json``: headline metrics (RMS/max yaw error, update fraction, repairs, held ticks, per-quantity
   comparison with the first divergence, ``bit_identical``), timing under ``timing``;
@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from nodesim.replay.compare import QuantityDiff  # noqa: E402
+from nodesim.replay.compare import QuantityDiff, recorded_at_ticks  # noqa: E402
 from nodesim.replay.reader import NodeLog  # noqa: E402
 from nodesim.replay.replayer import NodeReplay  # noqa: E402
 from nodesim.results import atomic_write_with, write_csv  # noqa: E402
@@ -30,8 +30,6 @@ from nodesim.units import rad_to_deg, wrap_pi  # noqa: E402
 def yaw_reference(node: NodeLog, rep: NodeReplay) -> tuple[np.ndarray, str | None]:
     """What the yaw error is measured against: the truth at the ticks if logged, else the encoder."""
     if node.has("true_yaw"):
-        from nodesim.replay.compare import recorded_at_ticks
-
         return recorded_at_ticks(node, rep.t_s, "true_yaw")[0], "truth"
     if np.isfinite(rep.encoder_rad).any():
         return rep.encoder_rad, "encoder"
@@ -72,6 +70,8 @@ def timeseries_columns(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...]) 
             "inclination_deg": rad_to_deg(rep.inclination_rad),
             "azimuth_deg": rad_to_deg(rep.azimuth_rad),
         }
+        if any(n.has("seq") for n in logs):
+            cols["seq"] = recorded_at_ticks(node, rep.t_s, "seq")[0] if node.has("seq") else np.full(rep.t_s.size, np.nan)
         for k, v in cols.items():
             parts.setdefault(k, []).append(np.asarray(v))
     return {k: np.concatenate(v) for k, v in parts.items()}

@@ -106,3 +106,36 @@ def test_fixed_and_float_replays_agree(tmp_path):
     b = replay_log(log, fixed, parse_schedule("windowed:10:10", SETUP))[0]
     d = np.degrees(np.angle(np.exp(1j * (a.yaw_rad - b.yaw_rad))))
     assert np.nanmax(np.abs(d)) < 1e-3 and b.overflows is not None
+
+
+def test_seq_is_copied_to_the_timeseries(tmp_path):
+    from nodesim.replay.outputs import timeseries_columns
+
+    t = np.arange(200) / 20.0
+    cols = {"t_s": t, "encoder": np.zeros_like(t), "seq": np.floor(t), **{c: np.zeros_like(t) for c in lf.GYRO + lf.ACCEL}}
+    cols["accel_z"] = np.full_like(t, 9.8)
+    log = read_log(write_log(tmp_path / "seq.csv", [NodeRecording(1, cols)], lf.LogMeta()))
+    reps = replay_log(log, SETUP, parse_schedule("continuous", SETUP))
+    ts = timeseries_columns(log.nodes, reps)
+    assert np.array_equal(ts["seq"], np.floor(reps[0].t_s))  # the row at the tick time carries floor(t)
+
+
+@pytest.mark.parametrize(("header", "message"), [
+    ({"gyro_unit": "counts"}, "gyro_unit = counts needs gyro_lsb_per_deg_s > 0"),
+    ({"encoder_unit": "counts", "encoder_counts_per_rev": 0}, "encoder_counts_per_rev > 0"),
+    ({"angle_unit": "grad"}, r"angle_unit = 'grad' is not a known unit; allowed \['rad', 'deg'\]"),
+    ({"adc_bits": 12}, r"adc_bits = 12; allowed \[16, 32\]"),
+    ({"colour": "red"}, "unknown header key 'colour'"),
+    ({"adc_bits": "many"}, "header adc_bits = 'many' is not a valid int"),
+])
+def test_bad_headers(header, message):
+    with pytest.raises(NodesimError, match=message):
+        lf.meta_from_dict(header, "log.csv")
+
+
+def test_deg_and_g_units_convert():
+    meta = lf.meta_from_dict({"gyro_unit": "deg/s", "accel_unit": "g", "encoder_unit": "deg", "angle_unit": "deg"}, "x")
+    assert meta.gyro_to_rad_s == pytest.approx(DEG) and meta.encoder_to_rad == pytest.approx(DEG)
+    from nodesim.units import G0_M_S2
+
+    assert meta.accel_to_m_s2 == G0_M_S2 and meta.angle_to_rad == pytest.approx(DEG)
