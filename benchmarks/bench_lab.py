@@ -6,9 +6,8 @@ with R realizations.  It shows that Monte Carlo cost is carried by numpy arrays,
 
 from importlib import resources
 
-from nodesim.bench import best_time_s
+from nodesim.bench import chain_batched_vs_loop
 from nodesim.scenario import load_scenario
-from nodesim.simulation import simulate_lab
 
 R = 32
 
@@ -16,15 +15,7 @@ R = 32
 def lab_batched_vs_loop() -> dict:
     with resources.as_file(resources.files("scenarios") / "lab" / "continuous.toml") as p:
         base, _ = load_scenario(p)
-    single = [base.with_overrides(seed=base.seed + i, **{"simulation.realizations": 1}) for i in range(R)]
-    batched = base.with_overrides(**{"simulation.realizations": R})
-    t_loop = best_time_s(lambda: [simulate_lab(s) for s in single], repeat=2)
-    t_batch = best_time_s(lambda: simulate_lab(batched), repeat=3)
-    return {
-        "lab_batched_speedup_vs_loop": t_loop / t_batch,
-        "lab_loop_32_runs_s": t_loop,
-        "lab_batched_32_realizations_s": t_batch,
-    }
+    return chain_batched_vs_loop(base, R, "lab")
 
 
 BENCHMARKS = [lab_batched_vs_loop]

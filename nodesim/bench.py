@@ -50,6 +50,22 @@ def best_time_s(fn: Callable[[], object], repeat: int = 5, number: int = 1) -> f
     return best
 
 
+def chain_batched_vs_loop(base, realizations: int, prefix: str, repeat_loop: int = 2, repeat_batch: int = 3) -> dict:
+    """Time ``realizations`` single-realization chain runs of scenario ``base`` (seeds base.seed + i) against
+    one run with that many realizations: ``<prefix>_batched_speedup_vs_loop`` plus both raw times."""
+    from nodesim.chain import simulate_chain
+
+    single = [base.with_overrides(seed=base.seed + i, **{"simulation.realizations": 1}) for i in range(realizations)]
+    batched = base.with_overrides(**{"simulation.realizations": realizations})
+    t_loop = best_time_s(lambda: [simulate_chain(s) for s in single], repeat=repeat_loop)
+    t_batch = best_time_s(lambda: simulate_chain(batched), repeat=repeat_batch)
+    return {
+        f"{prefix}_batched_speedup_vs_loop": t_loop / t_batch,
+        f"{prefix}_loop_{realizations}_runs_s": t_loop,
+        f"{prefix}_batched_{realizations}_realizations_s": t_batch,
+    }
+
+
 def run_benchmarks(bench_dir: Path, only: str | None = None) -> dict:
     """Run the benchmarks (optionally those whose name contains ``only``) and merge their figures."""
     figures: dict = {}

@@ -31,18 +31,49 @@ class SimulationSection(_Section):
     realizations: int = Field(1, ge=1, le=1_000_000, description="independent Monte Carlo realizations")
 
 
-class ChainSection(_Section):
-    """The sensor chain: number of nodes, firmware rate, simple links (a fixed delay and a loss probability)."""
+class NodeClockSection(_Section):
+    """Per-node clock override (one ``[[chain.node]]`` table per node that differs from the default)."""
 
-    nodes: int = Field(1, ge=1, le=100_000, description="sensor nodes, one per drill tube")
+    id: int = Field(..., ge=1, description="node id, 1 = top of the final chain")
+    clock_offset_s: float | None = Field(None, ge=0.0, le=10.0, description="tick phase (default: stagger)")
+    clock_drift_ppm: float | None = Field(None, ge=-1000.0, le=1000.0, description="clock rate error")
+
+
+class ChainSection(_Section):
+    """The sensor chain: number of nodes, firmware rate, simple links (a fixed delay and a loss probability),
+    clocks (node n ticks at offset_n + k dt / (1 + drift_n 1e-6)) and the feed-forward packet rules."""
+
+    nodes: int = Field(1, ge=1, le=100_000, description="sensor nodes, one per drill tube (1 = top)")
     firmware_rate_hz: float = Field(1.9, gt=0.0, le=1000.0, description="node filter rate")
     link_delay_s: float = Field(0.015, ge=0.0, le=10.0, description="transfer time of one hop")
     link_loss_probability: float = Field(0.0, ge=0.0, le=1.0, description="per-transmission loss")
+    processing_s: float = Field(0.005, ge=0.0, le=10.0, description="filter time before a node transmits")
+    clock_stagger_s: float = Field(0.06, ge=0.0, le=10.0, description="default tick offset of node n: (n-1) x this")
+    clock_drift_ppm: float = Field(0.0, ge=-1000.0, le=1000.0, description="default clock rate error of every node")
+    max_update_age_s: float = Field(1.5, gt=0.0, le=3600.0, description="older forwarded estimates are stale")
+    offset_sigma_deg: float = Field(0.0, ge=0.0, le=90.0, description="node-to-node yaw offset sigma added to R")
+    forward: Literal["after_update", "every_tick"] = Field(
+        "after_update",
+        description="when a node forwards its estimate down: only in ticks where it applied an update, or every "
+        "tick its filter runs (its post-time-update estimate when it had no reference)",
+    )
+    rate_compensation: Literal["tick_mean", "extrapolated"] = Field(
+        "tick_mean",
+        description="rate advancing a forwarded estimate: the last tick's mean gyro rate (thesis eq 3.29) or that "
+        "rate extrapolated linearly to the middle of the transfer (removes the lag in rate ramps)",
+    )
+    node: list[NodeClockSection] = Field(default_factory=list, description="per-node clock overrides")
 
 
 class MotionSection(_Section):
-    """The thesis lab rotation profile (thesis 4.2.2-4.2.3): static, slow rotation, pause, fast rotation, static."""
+    """True motion.  ``kind = "lab"``: the thesis lab rotation profile (thesis 4.2.2-4.2.3): static, slow
+    rotation, pause, fast rotation, static.  ``kind = "drilling"``: :class:`nodesim.drilling.DrillingProcess`
+    after ``initial_static_s`` at rest: per tube, drill ``tube_length_m`` at ``rate_of_penetration_m_s``
+    rotating at ``drill_rate_deg_s`` (ramps of ``ramp_s``), a survey stop of ``survey_stop_s``, then the next
+    tube's insertion (``insertion_s``, string in the slips), along ``wellpath`` rows [MD m, inclination deg,
+    azimuth deg] (default: a straight hole at inclination_deg / azimuth_deg)."""
 
+    kind: Literal["lab", "drilling"] = "lab"
     inclination_deg: float = Field(2.0, ge=0.0, le=180.0)
     azimuth_deg: float = Field(45.0, ge=0.0, lt=360.0)
     stationary_s: float = Field(50.0, ge=0.0, description="initial static window (bias estimation)")
@@ -51,6 +82,47 @@ class MotionSection(_Section):
     pause_s: float = Field(10.0, ge=0.0, description="static time between slow and fast rotation")
     fast_rate_deg_s: float = Field(71.0, gt=0.0, le=2000.0)
     fast_turns: float = Field(20.0, ge=0.0, le=1e6)
+    tube_length_m: float = Field(2.0, gt=0.0, le=100.0, description="drilling: tube length = survey spacing")
+    rate_of_penetration_m_s: float = Field(2.0 / 120.0, gt=0.0, le=10.0, description="drilling: advance rate")
+    drill_rate_deg_s: float = Field(60.0, gt=0.0, le=2000.0, description="drilling: string rotation rate")
+    ramp_s: float = Field(5.0, ge=0.0, le=3600.0, description="drilling: rotation ramp up/down time")
+    insertion_s: float = Field(60.0, gt=0.0, le=3600.0, description="drilling: tube insertion (in the slips)")
+    survey_stop_s: float = Field(40.0, gt=0.0, le=3600.0, description="drilling: static survey stop per tube")
+    survey_settle_s: float = Field(20.0, ge=0.0, le=3600.0, description="drilling: wait before surveying")
+    initial_static_s: float = Field(60.0, gt=0.0, le=3600.0, description="drilling: rest before the first tube")
+    node_offset_m: float = Field(1.0, ge=0.0, le=100.0, description="drilling: node height above its tube's end")
+    wellpath: list[list[float]] = Field(default_factory=list, description="drilling: [MD m, inc deg, azi deg] rows")
+
+    def drilling_duration_s(self, tubes: int) -> float:
+        """Length of the drilling programme of ``tubes`` tubes."""
+        drill = self.tube_length_m / self.rate_of_penetration_m_s
+        return self.initial_static_s + tubes * (drill + self.survey_stop_s) + (tubes - 1) * self.insertion_s
+
+    @model_validator(mode="after")
+    def _drilling_consistent(self) -> "MotionSection":
+        if self.kind != "drilling":
+            if self.wellpath:
+                raise ValueError("wellpath is only used with kind = 'drilling'")
+            return self
+        if self.survey_settle_s >= self.survey_stop_s:
+            raise ValueError(
+                f"survey_settle_s ({self.survey_settle_s}) must be less than survey_stop_s ({self.survey_stop_s})"
+            )
+        drill = self.tube_length_m / self.rate_of_penetration_m_s
+        if 2.0 * self.ramp_s >= drill:
+            raise ValueError(f"ramp_s ({self.ramp_s}): two ramps must fit in one tube's drilling time "
+                             f"(allowed: < {drill / 2:.4g} s)")
+        if self.node_offset_m > self.tube_length_m:
+            raise ValueError(f"node_offset_m ({self.node_offset_m}) must not exceed tube_length_m ({self.tube_length_m})")
+        for i, row in enumerate(self.wellpath):
+            if len(row) != 3:
+                raise ValueError(f"wellpath[{i}] must be [md_m, inclination_deg, azimuth_deg] (got {len(row)} numbers)")
+            md, inc, azi = row
+            if not 0.0 <= inc <= 180.0 or not 0.0 <= azi < 360.0:
+                raise ValueError(f"wellpath[{i}] = {row}: inclination must be in [0, 180] and azimuth in [0, 360) deg")
+            if i and md <= self.wellpath[i - 1][0]:
+                raise ValueError(f"wellpath[{i}] = {row}: MD must increase (previous {self.wellpath[i - 1][0]} m)")
+        return self
 
 
 class SensorSection(_Section):
@@ -62,7 +134,9 @@ class SensorSection(_Section):
         -0.02, ge=-250.0, le=250.0, description="bias left after motion starts (thesis 4.2.3: about -0.02 deg/s)"
     )
     gyro_scale_factor_error: float = Field(
-        0.003, gt=-0.5, lt=0.5, description="residual z-gyro scale-factor error after calibration (fraction)"
+        0.001, gt=-0.5, lt=0.5,
+        description="residual z-gyro scale-factor error after calibration (fraction): thesis table 4.16 "
+        "(MPU6500 scale factor error 1e-3)",
     )
     gyro_bias_instability_deg_s: float = Field(3.33e-3, ge=0.0, le=10.0, description="Gauss-Markov sigma")
     gyro_bias_tau_s: float = Field(500.0, gt=0.0, le=1e7, description="Gauss-Markov correlation time")
@@ -81,12 +155,41 @@ class FilterSection(_Section):
 
 
 class ScheduleSection(_Section):
-    """Reference-update schedule (thesis 4.2.2 update modes)."""
+    """Reference-update schedule (thesis 4.2.2 update modes); ``arbitrary`` takes ``windows``, a list of
+    ``[start_s, stop_s, rate_hz]`` (non-negative, ordered, not overlapping, rate > 0)."""
 
-    mode: Literal["continuous", "windowed", "single", "none"] = "continuous"
+    mode: Literal["continuous", "windowed", "single", "arbitrary", "none"] = "continuous"
     update_s: float = Field(20.0, gt=0.0, description="windowed: length of an update window")
     timeout_s: float = Field(30.0, ge=0.0, description="windowed: length of a timeout")
     single_rate_hz: float = Field(0.2, gt=0.0, le=1000.0, description="single: update frequency")
+    windows: list[list[float]] = Field(default_factory=list, description="arbitrary: [start_s, stop_s, rate_hz]")
+
+    @model_validator(mode="after")
+    def _windows_valid(self) -> "ScheduleSection":
+        if self.mode != "arbitrary":
+            if self.windows:
+                raise ValueError(f"windows is only used with mode = 'arbitrary' (mode is {self.mode!r})")
+            return self
+        if not self.windows:
+            raise ValueError("mode = 'arbitrary' needs windows = [[start_s, stop_s, rate_hz], ...] (got none)")
+        previous_stop = None
+        for i, w in enumerate(self.windows):
+            if len(w) != 3:
+                raise ValueError(f"windows[{i}] must be [start_s, stop_s, rate_hz] (got {len(w)} numbers)")
+            start, stop, rate = w
+            if start < 0 or stop < 0:
+                raise ValueError(f"windows[{i}] = {w}: start_s and stop_s must be >= 0")
+            if stop <= start:
+                raise ValueError(f"windows[{i}] = {w}: stop_s must be greater than start_s")
+            if not 0 < rate <= 1000:
+                raise ValueError(f"windows[{i}] = {w}: rate_hz must be in (0, 1000]")
+            if previous_stop is not None and start < previous_stop:
+                raise ValueError(
+                    f"windows[{i}] = {w} overlaps or precedes windows[{i - 1}] (ending at {previous_stop}): "
+                    "windows must be in time order and not overlap"
+                )
+            previous_stop = stop
+        return self
 
 
 class MetricsSection(_Section):
@@ -96,6 +199,9 @@ class MetricsSection(_Section):
     window_end_s: float = Field(570.0, gt=0.0, description="end of the RMS error window")
     bias_tolerance_deg_s: float = Field(0.002, gt=0.0, description="bias convergence band")
     bias_hold_s: float = Field(10.0, ge=0.0, description="time the bias must stay in the band")
+    output_moving_average_points: int = Field(
+        1, ge=1, le=10_000, description="extra moving average on the reported I and A before the RMS (1 = none)"
+    )
 
     @model_validator(mode="after")
     def _window_ordered(self) -> "MetricsSection":
@@ -127,6 +233,29 @@ class Scenario(_Section):
                 f"metrics.window_end_s ({self.metrics.window_end_s}) must not exceed "
                 f"simulation.duration_s ({self.simulation.duration_s})"
             )
+        seen: set[int] = set()
+        for i, node in enumerate(self.chain.node):
+            if node.id > self.chain.nodes:
+                raise ValueError(
+                    f"chain.node[{i}].id = {node.id}: unknown node id (allowed: 1..{self.chain.nodes}, chain.nodes)"
+                )
+            if node.id in seen:
+                raise ValueError(f"chain.node[{i}].id = {node.id}: node id given twice")
+            seen.add(node.id)
+        dt = 1.0 / self.chain.firmware_rate_hz
+        if 2.0 * self.chain.link_delay_s + self.chain.processing_s >= dt:
+            raise ValueError(
+                f"chain.link_delay_s ({self.chain.link_delay_s}) and chain.processing_s ({self.chain.processing_s}): "
+                f"the encoder request, reply and processing must fit in one firmware tick "
+                f"(allowed: 2 x link_delay_s + processing_s < {dt:.4g} s at {self.chain.firmware_rate_hz} Hz)"
+            )
+        if self.motion.kind == "drilling":
+            needed = self.motion.drilling_duration_s(self.chain.nodes)
+            if self.simulation.duration_s < needed:
+                raise ValueError(
+                    f"simulation.duration_s ({self.simulation.duration_s}) must cover the drilling programme of "
+                    f"{self.chain.nodes} tubes (allowed: >= {needed:.6g} s)"
+                )
         return self
 
     def with_overrides(self, **top_level: Any) -> "Scenario":

@@ -36,11 +36,11 @@ def test_streams_do_not_depend_on_sibling_counts():
 
 
 def test_realization_streams_independent_of_realization_count(lab_toml):
+    from nodesim.chain import simulate_chain
     from nodesim.scenario import load_scenario
-    from nodesim.simulation import simulate_lab
 
     base, _ = load_scenario(lab_toml)
-    one = simulate_lab(base.with_overrides(**{"simulation.realizations": 1}))
-    three = simulate_lab(base.with_overrides(**{"simulation.realizations": 3}))
-    assert (one.yaw_est_rad[0] == three.yaw_est_rad[0]).all()
+    one = simulate_chain(base.with_overrides(**{"simulation.realizations": 1}))
+    three = simulate_chain(base.with_overrides(**{"simulation.realizations": 3}))
+    assert (one.nodes[0].yaw_est_rad[0] == three.nodes[0].yaw_est_rad[0]).all()
     assert one.simpy_events == three.simpy_events  # the event skeleton is shared

@@ -40,6 +40,26 @@ BAD_CASES = [
     ('[motion]\ninclination_deg = 190.0\n', "motion.inclination_deg", "less than or equal to 180"),
     ('[metrics]\nwindow_start_s = 500.0\nwindow_end_s = 400.0\n', "metrics", "must be greater than window_start_s"),
     ('[simulation]\nduration_s = 100.0\n', "<top level>", "must not exceed simulation.duration_s"),
+    ('[schedule]\nmode = "arbitrary"\nwindows = [[-5.0, 10.0, 1.0]]\n', "schedule", "windows[0] = [-5.0, 10.0, 1.0]: start_s and stop_s must be >= 0"),
+    ('[schedule]\nmode = "arbitrary"\nwindows = [[0.0, 100.0, 1.0], [50.0, 200.0, 1.0]]\n', "schedule", "windows[1] = [50.0, 200.0, 1.0] overlaps"),
+    ('[schedule]\nmode = "arbitrary"\nwindows = [[0.0, 100.0, 0.0]]\n', "schedule", "rate_hz must be in (0, 1000]"),
+    ('[schedule]\nmode = "arbitrary"\nwindows = [[10.0, 5.0, 1.0]]\n', "schedule", "stop_s must be greater than start_s"),
+    ('[schedule]\nmode = "arbitrary"\nwindows = [[0.0, 5.0]]\n', "schedule", "windows[0] must be [start_s, stop_s, rate_hz]"),
+    ('[schedule]\nmode = "arbitrary"\n', "schedule", "needs windows"),
+    ('[schedule]\nmode = "windowed"\nwindows = [[0.0, 5.0, 1.0]]\n', "schedule", "only used with mode = 'arbitrary'"),
+    ('[schedule]\nsingle_rate_hz = 0.0\n', "schedule.single_rate_hz", "greater than 0"),
+    ('[chain]\nnodes = 2\n[[chain.node]]\nid = 0\n', "chain.node.0.id", "greater than or equal to 1"),
+    ('[chain]\nnodes = 2\n[[chain.node]]\nid = 2\n[[chain.node]]\nid = 2\n', "<top level>", "chain.node[1].id = 2: node id given twice"),
+    ('[chain]\nnodes = 2\n[[chain.node]]\nid = 1\nclock_offset_s = -1.0\n', "chain.node.0.clock_offset_s", "greater than or equal to 0"),
+    ('[chain]\nlink_delay_s = 0.3\n', "<top level>", "must fit in one firmware tick"),
+    ('[motion]\nkind = "drilling"\n[chain]\nnodes = 10\n', "<top level>", "must cover the drilling programme of 10 tubes"),
+    ('[motion]\nkind = "drilling"\nsurvey_stop_s = 10.0\nsurvey_settle_s = 20.0\n', "motion", "must be less than survey_stop_s"),
+    ('[motion]\nkind = "spinning"\n', "motion.kind", "'lab'"),
+    ('[motion]\nwellpath = [[0.0, 1.0, 2.0]]\n', "motion", "wellpath is only used with kind = 'drilling'"),
+    ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 1.0]]\n', "motion", "wellpath[0] must be [md_m, inclination_deg, azimuth_deg]"),
+    ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 1.0, 2.0], [0.0, 2.0, 3.0]]\n', "motion", "wellpath[1] = [0.0, 2.0, 3.0]: MD must increase"),
+    ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 190.0, 2.0]]\n', "motion", "inclination must be in [0, 180]"),
+    ('[motion]\nkind = "drilling"\nramp_s = 70.0\n', "motion", "ramp_s (70.0): two ramps must fit"),
 ]
 
 
@@ -72,11 +92,12 @@ def test_not_toml_and_missing_file_are_clear(write_toml, tmp_path):
         load_scenario(tmp_path / "nope.toml")
 
 
-def test_unsupported_chain_length_is_a_clear_error_and_writes_nothing(write_toml, tmp_path, capsys):
-    path = write_toml('[chain]\nnodes = 3\n')
+def test_unknown_node_id_is_a_clear_error_and_writes_nothing(write_toml, tmp_path, capsys):
+    path = write_toml('[chain]\nnodes = 3\n[[chain.node]]\nid = 4\nclock_offset_s = 0.1\n')
     out = tmp_path / "run-out"
     assert main(["run", str(path), "--out", str(out)]) == 2
-    assert "chain.nodes = 3" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "chain.node[0].id = 4" in err and "allowed: 1..3" in err
     assert not out.exists()
 
 

@@ -1,6 +1,6 @@
 """Firmware-model figures (thesis 4.2.2-4.2.3 tuning; thesis digest 2.7 fixed-point acceptance).
 
-Each runs the bundled lab scenario (8 realizations) through the node simulation:
+Each runs the bundled lab scenario (8 realizations) through the chain simulation (a chain of one node):
 - bias convergence after the rotation stops with B = 5 and B = 1 (thesis fig 4.11b: ~82.8 s and
   ~177.98 s), the criterion of the thesis digest 5.4 (within +/- 0.002 deg/s of the true bias for 10 s);
 - the fixed-point filter (default formats) against the float filter on the same inputs: RMS yaw difference
@@ -15,9 +15,9 @@ from importlib import resources
 
 import numpy as np
 
-from nodesim.metrics import bias_convergence_time_s
+from nodesim.chain import ChainRun, simulate_chain
+from nodesim.chain.metrics import bias_convergence_time_s
 from nodesim.scenario import Scenario, load_scenario
-from nodesim.simulation import LabRun, simulate_lab
 from nodesim.units import DEG, rad_to_deg, wrap_pi
 from nodesim.validation import Check, within_abs, within_factor, within_rel
 
@@ -34,8 +34,8 @@ def _base() -> Scenario:
 
 
 def _convergence_s(tuning_b: float) -> float:
-    run = simulate_lab(_base().with_overrides(**{"filter.tuning_b": tuning_b}))
-    times = bias_convergence_time_s(run, 0.002 * DEG, 10.0)
+    run = simulate_chain(_base().with_overrides(**{"filter.tuning_b": tuning_b}))
+    times = bias_convergence_time_s(run.nodes[0], run.rotation_end_s, 0.002 * DEG, 10.0)
     return float(np.nanmean(times)) if np.isfinite(times).any() else float("nan")
 
 
@@ -52,11 +52,12 @@ def tuning_convergence() -> list[Check]:
     ]
 
 
-def _yaw_difference(scenario: Scenario) -> tuple[float, LabRun]:
-    run_float = simulate_lab(scenario)
-    run_fixed = simulate_lab(scenario.with_overrides(**{"filter.implementation": "fixed"}))
-    sel = run_float.t_s >= run_float.filter_start_s
-    diff = wrap_pi(run_fixed.yaw_est_rad[:, sel] - run_float.yaw_est_rad[:, sel])
+def _yaw_difference(scenario: Scenario) -> tuple[float, ChainRun]:
+    node_float = simulate_chain(scenario).nodes[0]
+    run_fixed = simulate_chain(scenario.with_overrides(**{"filter.implementation": "fixed"}))
+    node_fixed = run_fixed.nodes[0]
+    sel = node_float.t_s >= node_float.filter_start_s
+    diff = wrap_pi(node_fixed.yaw_est_rad[:, sel] - node_float.yaw_est_rad[:, sel])
     return float(rad_to_deg(np.sqrt(np.mean(diff**2)))), run_fixed
 
 
@@ -64,7 +65,7 @@ def fixed_vs_float() -> list[Check]:
     windowed = _base().with_overrides(**{"schedule.mode": "windowed", "schedule.update_s": 20.0, "schedule.timeout_s": 30.0})
     rms_cont, run_cont = _yaw_difference(_base())
     rms_win, run_win = _yaw_difference(windowed)
-    saturations = sum(run_cont.firmware_overflows.values()) + sum(run_win.firmware_overflows.values())
+    saturations = sum(sum(n.firmware_overflows.values()) for run in (run_cont, run_win) for n in run.nodes)
     return [
         within_abs("firmware: fixed vs float RMS yaw difference, continuous [deg]", DIGEST_FIXED, rms_cont, 0.0, 0.01),
         within_abs("firmware: fixed vs float RMS yaw difference, 20 s / 30 s windows [deg]", DIGEST_FIXED, rms_win, 0.0, 0.01),

@@ -1,44 +1,141 @@
-"""Lab experiment figures (thesis 4.2.2-4.2.4) from the bundled lab scenario.
+"""Lab experiment figures (thesis 4.2.2-4.2.4, table 4.22, figs 4.13/4.17/4.19, two-node section) from the
+bundled ``scenarios/lab/*.toml`` run through the chain simulation.
 
-The walking-skeleton node uses simple sensor and filter models; the chain issue re-tunes nothing per
-case but replaces the models.  Tolerance: a factor of two on every figure (the goal of the chain issue).
+Every case uses the same models and parameters (z-gyro ARW and bias instability from the thesis Allan
+results, table V.1; filter A = 1, B = 5; MPU-6500 datasheet accelerometer noise); nothing is tuned per
+case.  Tolerance: a factor of two on every figure, plus ordering checks (azimuth error grows with timeout
+length and with hop count).  ``REALIZATIONS`` Monte Carlo realizations per case (the mean is compared).
+The RMS window is the thesis's 350-550 s shifted by the later end of our canonical rotation (361 s
+instead of ~343 s): 370-570 s; the two-node window is the thesis's 600-1150 s.
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
 from importlib import resources
 
-from nodesim.metrics import per_realization_metrics, summarize
+from nodesim.chain import simulate_chain
+from nodesim.chain.metrics import per_realization_metrics, summarize
 from nodesim.scenario import load_scenario
-from nodesim.simulation import simulate_lab
-from nodesim.validation import Check, within_factor
+from nodesim.validation import Check, within_abs, within_factor
 
-REALIZATIONS = 8
+REALIZATIONS = 16
+T422 = "thesis table 4.22 (RMS errors 350-550 s, 32-point MAF)"
+NOISE_NOTE = (
+    "the MPU-6500 datasheet accelerometer noise (300 ug/sqrt(Hz)) alone gives ~0.12 deg RMS azimuth at 2 deg "
+    "inclination after the 32-point MAF; the thesis figure implies ~4x less noise"
+)
+OFFSET_NOTE = (
+    "after convergence our yaw error in these modes is a few hundredths of a degree; the thesis figure is "
+    "larger than its own yaw-error envelope (e.g. +/-0.2 deg at 0.2 Hz), so it likely holds an azimuth offset "
+    "of the true-azimuth reference that we do not model"
+)
+INC_NOTE = "inclination error here is accelerometer noise only; the thesis values scatter (0.000-0.085 deg) with no trend"
 
 
-def _continuous_summary() -> dict:
-    path = resources.files("scenarios") / "lab" / "continuous.toml"
-    with resources.as_file(path) as p:
+@lru_cache(maxsize=None)
+def lab_summary(name: str) -> dict:
+    """Summary metrics of ``scenarios/lab/<name>.toml`` with ``REALIZATIONS`` realizations (cached)."""
+    with resources.as_file(resources.files("scenarios") / "lab" / f"{name}.toml") as p:
         scenario, _ = load_scenario(p)
     scenario = scenario.with_overrides(**{"simulation.realizations": REALIZATIONS})
-    run = simulate_lab(scenario)
-    return summarize(per_realization_metrics(run, scenario.metrics))
+    return summarize(per_realization_metrics(simulate_chain(scenario), scenario.metrics))
 
 
-def lab_continuous() -> list[Check]:
-    s = _continuous_summary()
-    src = "thesis table 4.22 (RMS errors, continuous mode)"
+def _v(s: dict, key: str) -> float:
+    return float("nan") if s.get(key) is None else float(s[key])
+
+
+TABLE_4_22 = (  # scenario, label, published RMS inclination, RMS azimuth (deg)
+    ("continuous", "continuous", 0.01, 0.029),
+    ("windowed_20s_5s", "20 s / 5 s timeout", 0.085, 0.250),
+    ("windowed_20s_10s", "20 s / 10 s timeout", 0.002, 0.384),
+    ("windowed_20s_30s", "20 s / 30 s timeout", 0.000, 0.351),
+    ("windowed_20s_50s", "20 s / 50 s timeout", 0.015, 1.0),
+    ("windowed_20s_60s", "20 s / 60 s timeout", 0.005, 0.565),
+)
+
+
+def table_4_22() -> list[Check]:
+    out = []
+    for name, label, inc, azi in TABLE_4_22:
+        s = lab_summary(name)
+        note = NOISE_NOTE if name == "continuous" else (OFFSET_NOTE if azi < 0.5 else "")
+        out.append(within_factor(f"lab {label}: RMS azimuth error [deg]", T422, _v(s, "rms_azimuth_error_deg"), azi, 2.0,
+                                 note))
+        ours_inc = _v(s, "rms_inclination_error_deg")
+        if inc == 0.0:  # printed "0,000": only the rounding interval can be checked
+            out.append(within_abs(f"lab {label}: RMS inclination error [deg]", T422, ours_inc, 0.0, 0.0005,
+                                  "printed 0,000: checked against half the printed resolution; " + INC_NOTE))
+        else:
+            out.append(within_factor(f"lab {label}: RMS inclination error [deg]", T422, ours_inc, inc, 2.0, INC_NOTE))
+    return out
+
+
+def convergence_times() -> list[Check]:
+    src = "thesis 4.2.3 / figs 4.13, 4.17 (bias within +/-0.002 deg/s after the stop)"
+    cases = (
+        ("continuous", "continuous", 46.0),
+        ("windowed_20s_10s", "20 s / 10 s timeout", 57.0),
+        ("windowed_20s_30s", "20 s / 30 s timeout", 49.0),
+        ("windowed_20s_60s", "20 s / 60 s timeout", 156.0),
+        ("single_0p05hz", "single 0.05 Hz", 120.0),
+        ("single_0p0167hz", "single 0.0167 Hz", 165.0),
+    )
     return [
-        within_factor("lab continuous: RMS azimuth error [deg]", src, s["rms_azimuth_error_deg"], 0.029, 2.0),
-        within_factor("lab continuous: RMS inclination error [deg]", src, s["rms_inclination_error_deg"], 0.01, 2.0),
-        within_factor(
-            "lab continuous: bias convergence time [s]",
-            "thesis 4.2.3 (continuous mode, ~46 s after the stop)",
-            s["bias_convergence_time_s"] if s["bias_convergence_time_s"] is not None else float("nan"),
-            46.0,
-            2.0,
-        ),
+        within_factor(f"lab {label}: bias convergence time [s]", src, _v(lab_summary(name), "bias_convergence_time_s"),
+                      published, 2.0)
+        for name, label, published in cases
     ]
 
 
-CHECKS = [lab_continuous]
+def single_updates() -> list[Check]:
+    s = lab_summary("single_0p2hz")
+    src = "thesis 4.2.1 single updates at 0.2 Hz (RMS I 0.0089 deg, RMS A 0.5213 deg)"
+    mean_azi = sum(_v(lab_summary(n), "rms_azimuth_error_deg") for n in ("single_0p2hz", "single_0p1hz", "single_0p05hz")) / 3
+    return [
+        within_factor("lab single 0.2 Hz: RMS azimuth error [deg]", src, _v(s, "rms_azimuth_error_deg"), 0.5213, 2.0,
+                      OFFSET_NOTE),
+        within_factor("lab single 0.2 Hz: RMS inclination error [deg]", src, _v(s, "rms_inclination_error_deg"), 0.0089,
+                      2.0, INC_NOTE),
+        within_factor("lab single 0.05/0.1/0.2 Hz: mean RMS azimuth error [deg]",
+                      "thesis 4.2.3 (single updates at 0.05/0.1/0.2 Hz average ~0.5 deg)", mean_azi, 0.5, 2.0),
+    ]
+
+
+def two_nodes() -> list[Check]:
+    s = lab_summary("two_nodes_0p8hz")
+    src = "thesis two-node experiment, encoder -> A at 0.8 Hz, 600-1150 s"
+    note = OFFSET_NOTE + "; the thesis notes R barely grows from A to B, so B is close to single-node behaviour"
+    return [
+        within_factor("lab two nodes: node A RMS azimuth error [deg]", src, _v(s, "node1_rms_azimuth_error_deg"), 0.442,
+                      2.0, note),
+        within_factor("lab two nodes: node B RMS azimuth error [deg]", src, _v(s, "node2_rms_azimuth_error_deg"), 0.761,
+                      2.0, note),
+        within_factor("lab two nodes: node A RMS inclination error [deg]", src,
+                      _v(s, "node1_rms_inclination_error_deg"), 0.002, 2.0, INC_NOTE),
+        within_factor("lab two nodes: node B RMS inclination error [deg]", src,
+                      _v(s, "node2_rms_inclination_error_deg"), 0.027, 2.0, INC_NOTE),
+    ]
+
+
+def orderings() -> list[Check]:
+    azi = {n: _v(lab_summary(n), "rms_azimuth_error_deg") for n in
+           ("continuous", "windowed_20s_5s", "windowed_20s_30s", "windowed_20s_60s")}
+    chain = [azi["continuous"], azi["windowed_20s_5s"], azi["windowed_20s_30s"], azi["windowed_20s_60s"]]
+    grows = all(a < b for a, b in zip(chain, chain[1:]))
+    two = lab_summary("two_nodes_0p8hz")
+    azi_ratio = _v(two, "node2_rms_azimuth_error_deg") / _v(two, "node1_rms_azimuth_error_deg")
+    yaw_ratio = _v(two, "node2_rms_yaw_error_deg") / _v(two, "node1_rms_yaw_error_deg")
+    return [
+        Check("lab ordering: RMS azimuth 60 s / 5 s timeout (continuous < 5 s < 30 s < 60 s)", T422,
+              azi["windowed_20s_60s"] / azi["windowed_20s_5s"], 0.565 / 0.250, "ordering (ratio > 1, chain increasing)",
+              bool(grows), "ours: " + " < ".join(f"{v:.3f}" for v in chain)),
+        Check("lab ordering: RMS yaw error node B / node A (hop count)", "thesis two-node experiment (azimuth 0.761 / 0.442 deg)",
+              yaw_ratio, 0.761 / 0.442, "ordering (ratio > 1)", bool(yaw_ratio > 1.0),
+              f"compared on the yaw error, the part a hop changes: the azimuth ratio B/A is {azi_ratio:.3f} because "
+              "each node's independent accelerometer noise (~0.12 deg) swamps the ~0.003 deg yaw-error growth"),
+    ]
+
+
+CHECKS = [table_4_22, convergence_times, single_updates, two_nodes, orderings]

@@ -1,0 +1,107 @@
+"""The drilling process as the chain sees it: :class:`nodesim.drilling.DrillingProcess` (tube insertions
+along a wellpath, true attitude of every node) turned into node timelines and survey stops (thesis 2.7, 4.1).
+
+Chain time t = process time + ``initial_static_s``: the string first rests so that the bit node (tube 0)
+can average its gyro for its initial bias.  Then, per tube k (process phases): drill one tube length while
+rotating, a survey stop, then the insertion of tube k + 1 at the top (string in the slips).  Mapping:
+process node k (0 = bit) is chain node id N - k (1 = top of the final chain).
+  - node N: present from 0, static window [0, initial_static_s);
+  - node N - k (k >= 1): present from the start of its tube's insertion; the insertion is its static
+    window (the new node averages its gyro), and its filter starts from an encoder yaw when the insertion
+    ends (thesis 2.7: the new top tube gets an encoder update first);
+  - every node already in the string holds its state during later insertions (thesis 2.7: "saves psi
+    during the insertion transition and resumes from it afterwards");
+  - survey stop of tube k: station k + 1; the bottom node's survey is taken ``survey_settle_s`` after the
+    stop starts (the 32-point moving average has settled) and sent up; its MD is the bottom node's MD.
+Mounting yaws are set so that every node's yaw equals the string angle theta at its insertion (a rigid,
+aligned string: in a straight hole all nodes share the encoder's angle; a curved hole adds the geometric
+twist of :mod:`nodesim.drilling`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from nodesim.chain.motion import ChainMotion, NodeAttitude, NodeTimeline, SurveyStop
+from nodesim.drilling import DrillingProcess, Wellpath
+from nodesim.kinematics import RateProfile
+from nodesim.scenario import Scenario
+from nodesim.units import DEG
+
+
+@dataclass(frozen=True)
+class ShiftedSpin:
+    """The string spin of the process, on chain time (t_chain = t_process + lead_s)."""
+
+    profile: RateProfile
+    lead_s: float
+    rotation_end_s: float
+
+    def yaw_rad(self, t_s) -> np.ndarray:
+        return self.profile.angle_rad(np.asarray(t_s, dtype=float) - self.lead_s)
+
+    def rate_rad_s(self, t_s) -> np.ndarray:
+        return self.profile.rate_rad_s(np.asarray(t_s, dtype=float) - self.lead_s)
+
+    def mean_rate_rad_s(self, t0_s, t1_s) -> np.ndarray:
+        t0, t1 = np.asarray(t0_s, dtype=float), np.asarray(t1_s, dtype=float)
+        return (self.yaw_rad(t1) - self.yaw_rad(t0)) / (t1 - t0)
+
+
+def drilling_process(scenario: Scenario) -> DrillingProcess:
+    """The scenario's drilling process (kinematics issue model), mounts aligned to the string angle."""
+    m = scenario.motion
+    n = scenario.chain.nodes
+    rows = m.wellpath or [[0.0, m.inclination_deg, m.azimuth_deg], [n * m.tube_length_m + 1.0, m.inclination_deg,
+                                                                    m.azimuth_deg]]
+    proc = DrillingProcess(
+        Wellpath.from_degrees(rows),
+        tube_length_m=m.tube_length_m,
+        rop_m_s=m.rate_of_penetration_m_s,
+        drilling_rate_rad_s=m.drill_rate_deg_s * DEG,
+        ramp_s=m.ramp_s,
+        survey_stop_s=m.survey_stop_s,
+        insertion_s=m.insertion_s,
+        node_offset_m=m.node_offset_m,
+        n_tubes=n,
+    )
+    mounts = proc.rate_profile().angle_rad(proc.insertion_times_s())
+    return replace(proc, mount_yaw_rad=tuple(float(x) for x in mounts))
+
+
+def drilling_motion(scenario: Scenario) -> ChainMotion:
+    m = scenario.motion
+    n = scenario.chain.nodes
+    lead = m.initial_static_s
+    proc = drilling_process(scenario)
+    phases = proc.phases()
+    insertions = [p for p in phases if p.name == "insertion"]  # tube k = 1 .. n-1
+    surveys = [p for p in phases if p.name == "survey"]
+    drills = [p for p in phases if p.name == "drill"]
+    ins_start = [0.0] + [lead + p.start_s for p in insertions]  # by process node k
+    ins_end = [lead] + [lead + p.end_s for p in insertions]
+    timelines = {}
+    for k in range(n):
+        holds = tuple((ins_start[j], ins_end[j]) for j in range(k + 1, n))
+        top_until = ins_start[k + 1] if k + 1 < n else math.inf
+        timelines[n - k] = NodeTimeline(n - k, ins_start[k], ins_end[k], holds, top_until)
+    t_in = proc.insertion_times_s()
+
+    def attitude(index: int, t_s: np.ndarray) -> NodeAttitude:
+        k = n - 1 - index
+        truth = proc.truth(np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))  # at rest before insertion
+        return NodeAttitude(truth.yaw_rad[k], truth.inclination_rad[k], truth.azimuth_rad[k])
+
+    stops = []
+    for p in surveys:
+        t_survey = lead + p.start_s + m.survey_settle_s
+        md = float(proc.truth(np.array([t_survey - lead])).md_m[0, 0])
+        stops.append(SurveyStop(p.tube + 1, md, n, lead + p.start_s, t_survey, lead + p.end_s))
+    lo, hi = scenario.metrics.window_start_s, scenario.metrics.window_end_s
+    windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in stops if s.t_survey_s < hi and s.end_s > lo)
+    spin = ShiftedSpin(proc.rate_profile(), lead, lead + drills[-1].end_s)
+    return ChainMotion(spin, attitude, tuple(timelines[i] for i in range(1, n + 1)), tuple(stops), windows,
+                       spin.rotation_end_s)

@@ -1,0 +1,150 @@
+"""Per-node metrics of a chain run (flat keys, degrees at the edge; documented in README).
+
+For every node, over its metric ticks (inside the metrics windows: the lab's RMS window, or the settled
+part of each drilling survey stop; only where the node's filter runs):
+- ``rms_azimuth_error_deg``: RMS of wrap(A_reported - A_true), A_reported being the moving-averaged
+  azimuth the firmware reports (thesis table 4.22: 32-point MAF);
+  (with ``metrics.output_moving_average_points`` > 1 a further moving average is applied to the reported
+  I and A first: thesis figs 4.16/4.20 plot and read them through a 100-point MAF);
+- ``rms_inclination_error_deg``: the same for inclination;
+- ``rms_yaw_error_deg``: RMS of wrap(psi_hat - psi_true) (unsmoothed filter output);
+- ``max_timeout_yaw_error_deg``: the yaw-error envelope in timeouts: max |yaw error| over metric ticks
+  without a reference update (NaN when every tick had one);
+- ``bias_convergence_time_s``: time from the end of the last rotation until |b_hat - b| <= tolerance for
+  ``bias_hold_s`` (thesis digest 5.4 criterion); NaN if never;
+- ``bias_converged_fraction``: share of realizations whose bias converged;
+- ``update_fraction``: share of metric ticks that applied a reference update;
+- ``mean_update_age_s``: mean age of the reference at use (encoder read or forwarded estimate).
+Each is computed per realization; the summary gives the mean over realizations and, for R > 1, the 95th
+percentile under ``*_p95``.  The headline keys are those of the bottom node (the last in the chain, the
+one whose survey the ground station uses); every node also appears as ``node<id>_<key>``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from firmware_model.survey import circular_moving_average, trailing_moving_average
+from nodesim.chain.network import ChainRun, NodeRun
+from nodesim.scenario import MetricsSection
+from nodesim.units import rad_to_deg, wrap_pi
+
+PER_NODE_KEYS = (
+    "rms_azimuth_error_deg",
+    "rms_inclination_error_deg",
+    "rms_yaw_error_deg",
+    "max_timeout_yaw_error_deg",
+    "bias_convergence_time_s",
+    "bias_converged_fraction",
+    "update_fraction",
+    "mean_update_age_s",
+)
+
+
+def _rms(x: np.ndarray, axis: int = -1) -> np.ndarray:
+    return np.sqrt(np.mean(np.square(x), axis=axis))
+
+
+def metric_ticks(node: NodeRun, windows) -> np.ndarray:
+    """(K,) bool: the node's ticks inside any metrics window where its filter runs."""
+    sel = np.zeros(node.t_s.shape, dtype=bool)
+    for a, b in windows:
+        sel |= (node.t_s >= a) & (node.t_s <= b)
+    return sel & node.running
+
+
+def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: float, hold_s: float) -> np.ndarray:
+    """Per realization: first time after ``after_s`` from which |b_hat - b| <= tol for ``hold_s``."""
+    t = node.t_s
+    idx_after = np.flatnonzero((t >= after_s) & node.running)
+    inside = np.abs(node.bias_est_rad_s - node.true_bias_rad_s) <= tolerance_rad_s
+    dt = t[1] - t[0] if t.size > 1 else 1.0
+    hold_ticks = max(int(math.ceil(hold_s / dt)), 1)
+    out = np.full(inside.shape[0], np.nan)
+    for r in range(inside.shape[0]):
+        ok = inside[r, idx_after].astype(int)
+        if ok.size < hold_ticks:
+            continue
+        run_len = np.convolve(ok, np.ones(hold_ticks, dtype=int), mode="valid")
+        hits = np.flatnonzero(run_len == hold_ticks)
+        if hits.size:
+            out[r] = t[idx_after[hits[0]]] - after_s
+    return out
+
+
+def output_average(node: NodeRun, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Reported (inclination, azimuth) after a further ``points``-point moving average from the node's first
+    finite sample (``points`` = 1: unchanged)."""
+    if points <= 1:
+        return node.inclination_rad, node.azimuth_rad
+    inc, azi = node.inclination_rad.copy(), node.azimuth_rad.copy()
+    finite = np.flatnonzero(np.isfinite(inc[0]))
+    if finite.size:
+        a = finite[0]
+        inc[:, a:] = trailing_moving_average(inc[:, a:], points)
+        azi[:, a:] = circular_moving_average(azi[:, a:], points)
+    return inc, azi
+
+
+def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[str, np.ndarray]:
+    """Metric arrays of shape (R,) for one node, in edge units (deg, s)."""
+    sel = metric_ticks(node, run.motion.metric_windows)
+    R = node.yaw_est_rad.shape[0]
+    inc, azi = output_average(node, window.output_moving_average_points)
+    azi_err = wrap_pi(azi[:, sel] - node.true_azimuth_rad[sel])
+    inc_err = inc[:, sel] - node.true_inclination_rad[sel]
+    yaw_err = wrap_pi(node.yaw_est_rad[:, sel] - node.true_yaw_rad[sel])
+    timeout = ~node.update_mask[:, sel]
+    envelope = np.where(timeout, np.abs(yaw_err), -np.inf).max(axis=1, initial=-np.inf)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows (no update) give NaN on purpose
+        age = np.nanmean(np.where(node.update_mask[:, sel], node.update_age_s[:, sel], np.nan), axis=1)
+    convergence = bias_convergence_time_s(
+        node, run.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
+    )
+    nan = np.full(R, np.nan)
+    return {
+        "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if sel.any() else nan,
+        "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if sel.any() else nan,
+        "rms_yaw_error_deg": rad_to_deg(_rms(yaw_err)) if sel.any() else nan,
+        "max_timeout_yaw_error_deg": np.where(np.isfinite(envelope), rad_to_deg(envelope), np.nan),
+        "bias_convergence_time_s": convergence,
+        "bias_converged_fraction": np.isfinite(convergence).astype(float),
+        "update_fraction": node.update_mask[:, sel].mean(axis=1) if sel.any() else nan,
+        "mean_update_age_s": age,
+    }
+
+
+def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, np.ndarray]:
+    """All metric arrays (R,): the headline keys (bottom node), ``node<id>_*`` per node, packet counts."""
+    out: dict[str, np.ndarray] = {}
+    per_node = [node_metrics(run, n, window) for n in run.nodes]
+    out.update(per_node[-1])
+    for node, m in zip(run.nodes, per_node):
+        out.update({f"node{node.node_id}_{k}": v for k, v in m.items()})
+    out["stale_packets"] = sum(n.stale_packets for n in run.nodes).astype(float)
+    out["duplicate_packets"] = sum(n.duplicate_packets for n in run.nodes).astype(float)
+    out["lost_packets"] = run.lost_packets.astype(float)
+    if run.motion.stops:
+        received = np.zeros(run.nodes[0].yaw_est_rad.shape[0])
+        for g in run.surveys:
+            received += g.packet.valid
+        out["surveys_received"] = received
+    return out
+
+
+def summarize(per_realization: dict[str, np.ndarray]) -> dict[str, float | None]:
+    """Flat summary: mean over realizations (NaN -> None in JSON), plus p95 when R > 1 (not for counts
+    and fractions)."""
+    out: dict[str, float | None] = {}
+    no_p95 = ("_fraction", "_packets", "surveys_received")
+    for key, values in per_realization.items():
+        finite = values[np.isfinite(values)]
+        out[key] = float(np.mean(finite)) if finite.size else None
+        if values.size > 1 and not key.endswith(no_p95):
+            out[f"{key}_p95"] = float(np.percentile(finite, 95)) if finite.size else None
+    out["realizations"] = int(next(iter(per_realization.values())).size)
+    return out

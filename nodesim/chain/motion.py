@@ -1,0 +1,118 @@
+"""True motion of the chain as the network sees it: the string's spin, each node's attitude, and when
+each node exists, holds and surveys.
+
+Two kinds (``motion.kind``):
+  - ``lab``: the thesis lab string (thesis 4.2.2-4.2.3, :class:`nodesim.kinematics.LabRotationProfile`);
+    every node is present from t = 0, estimates its initial bias over the static window and shares the
+    string's yaw, inclination and azimuth (a rigid string, no torsion).  Node 1 is the top node.
+  - ``drilling``: :func:`nodesim.chain.drilling.drilling_motion` around the drilling process of
+    :mod:`nodesim.drilling`; node N (at the bit) is in place first and node 1 is inserted last.
+
+Both give a :class:`ChainMotion`: the string spin (angle theta(t), what the encoder reads; its rate is what
+every z gyro sees), each node's true yaw/inclination/azimuth at its tick times, one :class:`NodeTimeline`
+per node and the survey stops.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+
+from nodesim.kinematics import LabRotationProfile
+from nodesim.scenario import Scenario
+from nodesim.units import DEG
+
+
+class Rotation(Protocol):
+    rotation_end_s: float
+
+    def yaw_rad(self, t_s) -> np.ndarray: ...
+
+    def rate_rad_s(self, t_s) -> np.ndarray: ...
+
+    def mean_rate_rad_s(self, t0_s, t1_s) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class NodeTimeline:
+    """When node ``node_id`` exists, estimates its initial bias, holds its state and is the top node."""
+
+    node_id: int
+    present_from_s: float  # powered in its tube
+    filter_start_s: float  # end of its static bias window: the filter starts with an encoder yaw
+    holds: tuple[tuple[float, float], ...]  # [start, end): tube insertions above it, state saved and resumed
+    top_until_s: float  # it is the top node (encoder-aided) from present_from_s until this time
+
+    def holding(self, t_s: float) -> bool:
+        return any(a <= t_s < b for a, b in self.holds)
+
+    def is_top(self, t_s: float) -> bool:
+        return self.present_from_s <= t_s < self.top_until_s
+
+
+@dataclass(frozen=True)
+class SurveyStop:
+    """A survey station: the bottom node's survey is taken at ``t_survey_s`` and sent up."""
+
+    station: int
+    md_m: float
+    node_id: int
+    start_s: float
+    t_survey_s: float
+    end_s: float
+
+
+@dataclass(frozen=True)
+class NodeAttitude:
+    """True attitude of one node at its tick times (K,): yaw (unwrapped), inclination, azimuth (rad)."""
+
+    yaw_rad: np.ndarray
+    inclination_rad: np.ndarray
+    azimuth_rad: np.ndarray
+
+
+@dataclass(frozen=True)
+class ChainMotion:
+    rotation: Rotation  # the string spin: yaw_rad = theta(t) read by the encoder, rates seen by the z gyros
+    attitude: Callable[[int, np.ndarray], NodeAttitude]  # (node index, tick times) -> truth
+    timelines: tuple[NodeTimeline, ...]  # index i = node id i + 1
+    stops: tuple[SurveyStop, ...]
+    metric_windows: tuple[tuple[float, float], ...]  # where RMS errors are measured
+    rotation_end_s: float  # end of the last rotation (bias convergence is timed from here)
+
+
+def lab_profile(scenario: Scenario) -> LabRotationProfile:
+    m = scenario.motion
+    return LabRotationProfile(
+        inclination_rad=m.inclination_deg * DEG,
+        azimuth_rad=m.azimuth_deg * DEG,
+        stationary_s=m.stationary_s,
+        slow_rate_rad_s=m.slow_rate_deg_s * DEG,
+        slow_turns=m.slow_turns,
+        pause_s=m.pause_s,
+        fast_rate_rad_s=m.fast_rate_deg_s * DEG,
+        fast_turns=m.fast_turns,
+    )
+
+
+def build_motion(scenario: Scenario) -> ChainMotion:
+    """The motion of ``scenario`` (lab or drilling)."""
+    if scenario.motion.kind == "drilling":
+        from nodesim.chain.drilling import drilling_motion
+
+        return drilling_motion(scenario)
+    profile = lab_profile(scenario)
+    n = scenario.chain.nodes
+    timelines = tuple(
+        NodeTimeline(i + 1, 0.0, scenario.motion.stationary_s, (), math.inf if i == 0 else 0.0) for i in range(n)
+    )
+    window = ((scenario.metrics.window_start_s, scenario.metrics.window_end_s),)
+
+    def attitude(_: int, t_s: np.ndarray) -> NodeAttitude:
+        return NodeAttitude(profile.yaw_rad(t_s), np.full(t_s.shape, profile.inclination_rad),
+                            np.full(t_s.shape, profile.azimuth_rad))
+
+    return ChainMotion(profile, attitude, timelines, (), window, profile.rotation_end_s)

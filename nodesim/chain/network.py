@@ -1,0 +1,204 @@
+"""The chain network: encoder, N nodes, simple links and the ground-station sink in one SimPy environment.
+
+``simulate_chain(scenario)`` builds the motion, each node's clock and sensor signals, the links
+(down-link l feeds node l + 1: from the encoder when that node is the top node, else from the node above;
+up-link N + l carries surveys from node l + 1 upwards) and runs every node as a process until the end of
+the scenario.  Realizations share the event skeleton (tick times, schedule, delays) and own every random
+draw (sensor noise, packet losses); the SimPy event count does not depend on R.
+
+Clocks: node n (1-based) ticks at offset_n + k dt / (1 + drift_n 1e-6), offset_n = (n - 1) x
+``chain.clock_stagger_s`` by default, so a reference wave crosses several hops in one cycle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import simpy
+
+from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
+from nodesim.chain.links import SimpleLink
+from nodesim.chain.motion import ChainMotion, build_motion
+from nodesim.chain.node import ChainNode
+from nodesim.chain.packets import SurveyPacket
+from nodesim.chain.sensing import EncoderReader, node_signals
+from nodesim.rng import RunStreams
+from nodesim.scenario import Scenario
+from nodesim.schedules import UpdateSchedule
+from nodesim.units import DEG
+
+
+def schedule_of(scenario: Scenario) -> UpdateSchedule:
+    s = scenario.schedule
+    return UpdateSchedule(s.mode, s.update_s, s.timeout_s, s.single_rate_hz, tuple(tuple(w) for w in s.windows))
+
+
+def node_clock(scenario: Scenario, node_id: int) -> tuple[float, float]:
+    """(offset_s, drift_ppm) of ``node_id``: the ``[[chain.node]]`` override or the defaults."""
+    c = scenario.chain
+    offset, drift = (node_id - 1) * c.clock_stagger_s, c.clock_drift_ppm
+    for o in c.node:
+        if o.id == node_id:
+            offset = o.clock_offset_s if o.clock_offset_s is not None else offset
+            drift = o.clock_drift_ppm if o.clock_drift_ppm is not None else drift
+    return offset, drift
+
+
+def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float) -> np.ndarray:
+    """True times of a node's ticks in [0, duration]: offset + k dt / (1 + drift 1e-6)."""
+    period = dt_s / (1.0 + drift_ppm * 1e-6)
+    if offset_s > duration_s:
+        return np.zeros(0)
+    return offset_s + np.arange(int(math.floor((duration_s - offset_s) / period + 1e-9)) + 1) * period
+
+
+@dataclass(frozen=True)
+class NodeRun:
+    """Per-tick records of one node (realization axis first; NaN where the node does not exist yet)."""
+
+    node_id: int
+    t_s: np.ndarray  # (K,)
+    running: np.ndarray  # (K,) filter running and not holding
+    update_mask: np.ndarray  # (R, K)
+    update_age_s: np.ndarray  # (R, K) age of the reference at use, NaN without update
+    true_yaw_rad: np.ndarray  # (K,)
+    true_inclination_rad: np.ndarray  # (K,)
+    true_azimuth_rad: np.ndarray  # (K,)
+    yaw_est_rad: np.ndarray
+    yaw_var_rad2: np.ndarray
+    true_bias_rad_s: np.ndarray
+    bias_est_rad_s: np.ndarray
+    inclination_rad: np.ndarray  # moving-averaged, as the firmware reports it
+    azimuth_rad: np.ndarray
+    stale_packets: np.ndarray  # (R,)
+    duplicate_packets: np.ndarray  # (R,)
+    filter_start_s: float
+    accel_sigma_m_s2: float
+    firmware_overflows: dict  # fixed-point saturation/overflow events per site (empty for the float filter)
+
+
+@dataclass(frozen=True)
+class GroundSurvey:
+    """A survey as the ground station received it."""
+
+    packet: SurveyPacket
+    arrival_s: float
+
+
+@dataclass(frozen=True)
+class ChainRun:
+    nodes: tuple[NodeRun, ...]
+    motion: ChainMotion
+    surveys: tuple[GroundSurvey, ...]
+    rotation_end_s: float
+    lost_packets: np.ndarray  # (R,) over all links
+    simpy_events: int
+    moving_average_points: int
+
+
+class Network:
+    """The SimPy world of one run (built by :func:`simulate_chain`)."""
+
+    def __init__(self, scenario: Scenario):
+        self.scenario = scenario
+        self.env = simpy.Environment()
+        self.events = 0
+        c = scenario.chain
+        self.n_nodes = c.nodes
+        self.dt_s = 1.0 / c.firmware_rate_hz
+        self.max_age_s = c.max_update_age_s
+        self.processing_s = c.processing_s
+        self.offset_sigma_rad = c.offset_sigma_deg * DEG
+        self.extrapolate_rate = c.rate_compensation == "extrapolated"
+        self.forward_every_tick = c.forward == "every_tick"
+        self.motion = build_motion(scenario)
+        self.encoder = EncoderReader.from_scenario(scenario, self.motion)
+        R = scenario.simulation.realizations
+        streams = RunStreams(seed=scenario.seed, n_nodes=c.nodes)
+        mk = SimpleLink.from_streams
+        self.down_links = [mk(f"down{i + 1}", streams, i, R, c.link_delay_s, c.link_loss_probability)
+                           for i in range(c.nodes)]
+        self.up_links = [mk(f"up{i + 1}", streams, c.nodes + i, R, c.link_delay_s, c.link_loss_probability)
+                         for i in range(c.nodes)]
+        schedule = schedule_of(scenario)
+        self.nodes: list[ChainNode] = []
+        for i in range(c.nodes):
+            offset, drift = node_clock(scenario, i + 1)
+            t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
+            sig = node_signals(scenario, self.motion, streams, i, t, self.dt_s)
+            self.nodes.append(ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s)))
+        self.sent: list[SurveyPacket] = []
+        self.ground: list[GroundSurvey] = []
+
+    def send_survey(self, packet: SurveyPacket) -> None:
+        self.sent.append(packet)
+        self.env.process(self._relay_up(packet))
+
+    def _relay_up(self, packet: SurveyPacket):
+        """Hop by hop from the surveying node to the top node and on to the ground station."""
+        t = self.env.now
+        top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
+        for node_id in range(packet.node_id, top - 1, -1):
+            link = self.up_links[node_id - 1]
+            lost = link.draw_lost(packet.valid)
+            yield self.env.timeout(link.delay_s)
+            self.events += 1
+            packet = packet.lost_where(lost)
+        self.ground.append(GroundSurvey(packet, self.env.now))
+
+    def run(self) -> ChainRun:
+        for node in self.nodes:
+            self.env.process(node.process())
+        self.env.run()
+        points = self.scenario.filter.moving_average_points
+        runs = tuple(_node_run(n, points) for n in self.nodes)
+        lost = sum(link.lost for link in self.down_links + self.up_links)
+        return ChainRun(
+            nodes=runs,
+            motion=self.motion,
+            surveys=tuple(self.ground),
+            rotation_end_s=self.motion.rotation_end_s,
+            lost_packets=lost,
+            simpy_events=self.events,
+            moving_average_points=points,
+        )
+
+
+def _node_run(node: ChainNode, points: int) -> NodeRun:
+    """Resolve the survey (thesis eqs 1.1-1.3) and apply the firmware moving average from the node's first tick."""
+    R, K = node.yaw.shape
+    inc = np.full((R, K), np.nan)
+    azi = np.full((R, K), np.nan)
+    first = int(np.searchsorted(node.sig.t_s, node.timeline.present_from_s))
+    if first < K:
+        i_raw, a_raw = resolve_survey(node.sig.specific_force[:, first:], node.yaw[:, first:])
+        inc[:, first:] = trailing_moving_average(i_raw, points)
+        azi[:, first:] = circular_moving_average(a_raw, points)
+    return NodeRun(
+        node_id=node.node_id,
+        t_s=node.sig.t_s,
+        running=node.running,
+        update_mask=node.applied,
+        update_age_s=node.age,
+        true_yaw_rad=node.sig.true_yaw_rad,
+        true_inclination_rad=node.sig.true_inclination_rad,
+        true_azimuth_rad=node.sig.true_azimuth_rad,
+        yaw_est_rad=node.yaw,
+        yaw_var_rad2=node.var,
+        true_bias_rad_s=node.sig.true_bias_rad_s,
+        bias_est_rad_s=node.bias,
+        inclination_rad=inc,
+        azimuth_rad=azi,
+        stale_packets=node.stale,
+        duplicate_packets=node.duplicate,
+        filter_start_s=node.timeline.filter_start_s,
+        accel_sigma_m_s2=node.sig.accel_sigma_m_s2,
+        firmware_overflows=dict(node.kf.overflow_counts) if node.kf is not None else {},
+    )
+
+
+def simulate_chain(scenario: Scenario) -> ChainRun:
+    """Run ``scenario``: R realizations of the encoder-aided chain (a single node is a chain of one)."""
+    return Network(scenario).run()

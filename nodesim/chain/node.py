@@ -1,0 +1,168 @@
+"""A sensor node as a SimPy process: the execution cycle of thesis 4.2.2 (Fig. 4.10) at the firmware rate.
+
+Every tick at the node's own clock (true time T[k] = offset + k dt / (1 + drift 1e-6)):
+  1. sync: wake at the tick (holding nodes keep their saved state during a tube insertion);
+  2. static window: average the gyro for the initial bias; at its end start the filter from an encoder yaw;
+  3. read sensors, time update with the tick-averaged gyro rate (Euler, nominal dt);
+  4. reference: the top node asks the encoder when the schedule says so (request and reply legs over its
+     link; psi_ref(T[k]) = psi_enc(t_read) - rate_enc (t_read - T[k]), R = q^2 / 12); every other node takes
+     the newest fresh packet from the node above (``select_reference``):
+         psi_ref(T[k]) = psi_hat_{n-1}(t_read) + omega_hat_n (T[k] - t_read)       (thesis eq 3.29)
+         R = P_{n-1} + ((T[k] - t_read) sigma_rate)^2 + sigma_off^2               (thesis digest 2.6 / 9.7)
+     with omega_hat_n the node's own bias-corrected gyro rate (the mean over its last tick, i.e. the rate at
+     T[k] - dt/2; ``chain.rate_compensation = "extrapolated"`` extrapolates it linearly from the last two
+     ticks to the middle of the transfer, which removes the lag (dt - transfer)/2 x angular acceleration that
+     otherwise adds up hop by hop during rotation ramps);
+  5. measurement update in the realizations that got a reference;
+  6. transmit (yaw, P_psipsi, rate, seq, t_read = T[k]) to the next node down, only in ticks where the node
+     applied an update (so one reference wave runs down the chain per update; in timeouts all nodes coast).
+     The SimPy event is sent whenever a reference reached the node this tick (the schedule for the top node,
+     a packet in the inbox for the others), so the event skeleton is the same for every realization; the
+     packet is ``valid`` only in the realizations that applied the update, and only they draw its loss.
+     ``chain.forward = "every_tick"`` forwards every running tick instead (the post-time-update estimate
+     when there was no reference; thesis digest 5.3 (iv) reads the two-node experiment that way);
+  7. the bottom node sends its survey up at a survey stop.
+Arrays are (R,): the event skeleton is shared by all realizations.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from nodesim.chain.estimator import forwarded_reference, new_filter, rate_estimate
+from nodesim.chain.motion import NodeTimeline
+from nodesim.chain.packets import EstimatePacket, SurveyPacket, select_reference
+from nodesim.chain.sensing import NodeSignals
+
+if TYPE_CHECKING:
+    from nodesim.chain.network import Network
+
+
+class ChainNode:
+    """Node ``node_id`` (1 = top of the final chain) and its per-tick records."""
+
+    def __init__(self, net: "Network", node_id: int, timeline: NodeTimeline, signals: NodeSignals,
+                 scheduled: np.ndarray):
+        self.net = net
+        self.node_id = node_id
+        self.index = node_id - 1
+        self.timeline = timeline
+        self.sig = signals
+        self.scheduled = scheduled  # (K,) encoder schedule evaluated at this node's ticks
+        R, K = signals.gyro_rad_s.shape
+        self.inbox: list[EstimatePacket] = []
+        self.last_seq = np.full(R, -1, dtype=np.int64)
+        self.seq = 0
+        self.kf = None
+        self.bias_sum = np.zeros(R)
+        self.bias_n = 0
+        self.stale = np.zeros(R, dtype=np.int64)
+        self.duplicate = np.zeros(R, dtype=np.int64)
+        self.yaw = np.full((R, K), np.nan)
+        self.var = np.full((R, K), np.nan)
+        self.bias = np.full((R, K), np.nan)
+        self.applied = np.zeros((R, K), dtype=bool)
+        self.age = np.full((R, K), np.nan)
+        self.running = np.zeros(K, dtype=bool)  # filter running and not holding
+        self.stops = [s for s in net.motion.stops if s.node_id == node_id]
+        self.opportunity = False  # a reference reached this tick (in any realization): the wave moves on
+
+    def deliver(self, packet: EstimatePacket) -> None:
+        self.inbox.append(packet)
+
+    def process(self):
+        env, sig, tl = self.net.env, self.sig, self.timeline
+        for k, t in enumerate(sig.t_s):
+            yield env.timeout(t - env.now)
+            self.net.events += 1
+            self.opportunity = False
+            if t < tl.present_from_s:
+                continue
+            if t < tl.filter_start_s:  # static window: initial bias
+                self.bias_sum += sig.gyro_rad_s[:, k]
+                self.bias_n += 1
+                self.yaw[:, k] = self.net.encoder.read(t)[0]
+                continue
+            if self.kf is None:
+                bias0 = self.bias_sum / self.bias_n if self.bias_n else 0.0
+                self.kf = new_filter(self.net.scenario, self.yaw.shape[0], self.net.encoder.read(t)[0], bias0)
+            elif tl.holding(t):
+                self.inbox.clear()  # nothing arrives from a powered-down link; the state is saved
+            else:
+                self.kf.predict(sig.gyro_rad_s[:, k])
+                if tl.is_top(t):
+                    if self.scheduled[k]:
+                        yield from self._encoder_update(k, t)
+                else:
+                    self._forwarded_update(k, t)
+                self.running[k] = True
+            self._record(k)
+            if self.node_id < self.net.n_nodes:
+                if self.net.forward_every_tick and self.running[k]:
+                    self._transmit(k, t, np.ones(self.yaw.shape[0], dtype=bool))
+                elif self.opportunity:
+                    self._transmit(k, t, self.applied[:, k])
+            for stop in self.stops:
+                if stop.t_survey_s <= t < stop.end_s and not any(p.station == stop.station for p in self.net.sent):
+                    self.net.send_survey(SurveyPacket(stop.station, stop.md_m, self.node_id, k, t,
+                                                      np.ones(self.yaw.shape[0], dtype=bool)))
+
+    def _encoder_update(self, k: int, t: float):
+        self.opportunity = True
+        env, link = self.net.env, self.net.down_links[self.index]
+        lost_request = link.draw_lost()
+        yield env.timeout(link.delay_s)
+        t_read = env.now
+        yaw_enc, rate_enc = self.net.encoder.read(t_read)
+        lost_reply = link.draw_lost(~lost_request)  # the encoder answers the requests it received
+        yield env.timeout(link.delay_s)
+        self.net.events += 2
+        have = ~(lost_request | lost_reply)
+        ref = np.full(have.shape, yaw_enc - rate_enc * (t_read - t))
+        self.kf.update(ref, self.net.encoder.variance_rad2, mask=have)
+        self.applied[:, k] = have
+        self.age[:, k] = np.where(have, env.now - t_read, np.nan)
+
+    def _forwarded_update(self, k: int, t: float) -> None:
+        self.opportunity = bool(self.inbox)
+        sel = select_reference(self.inbox, self.last_seq, t, self.net.max_age_s)
+        self.inbox.clear()
+        self.stale += sel.stale
+        self.duplicate += sel.duplicate
+        if not sel.have.any():
+            return
+        transfer = np.where(sel.have, t - sel.t_read_s, 0.0)
+        omega = rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])
+        if self.net.extrapolate_rate and k > 0:
+            # the tick mean is the rate at T[k] - dt/2; extrapolate it to the transfer's middle, T[k] - transfer/2
+            slope = (self.sig.gyro_rad_s[:, k] - self.sig.gyro_rad_s[:, k - 1]) / self.net.dt_s
+            omega = omega + slope * 0.5 * (self.net.dt_s - transfer)
+        var_in = np.where(sel.have, sel.yaw_var_rad2, 1.0)
+        ref, var = forwarded_reference(sel.yaw_rad, var_in, omega, transfer, self.sig.gyro_white_sigma_rad_s,
+                                       self.net.offset_sigma_rad)
+        self.kf.update(ref, var, mask=sel.have)
+        self.last_seq = np.where(sel.have, sel.seq, self.last_seq)
+        self.applied[:, k] = sel.have
+        self.age[:, k] = np.where(sel.have, transfer, np.nan)
+
+    def _record(self, k: int) -> None:
+        self.yaw[:, k] = self.kf.yaw_rad
+        self.var[:, k] = self.kf.yaw_variance_rad2
+        self.bias[:, k] = self.kf.bias_rad_s
+
+    def _transmit(self, k: int, t: float, valid: np.ndarray) -> None:
+        pkt = EstimatePacket(
+            sender=self.node_id,
+            seq=self.seq,
+            t_read_s=float(t),
+            yaw_rad=self.kf.yaw_rad.copy(),
+            yaw_var_rad2=self.kf.yaw_variance_rad2.copy(),
+            rate_rad_s=rate_estimate(self.kf, self.sig.gyro_rad_s[:, k]),
+            valid=valid.copy(),
+        )
+        self.seq += 1
+        below = self.net.nodes[self.index + 1]
+        link = self.net.down_links[self.index + 1]
+        self.net.env.process(link.send(self.net.env, pkt, below.deliver, extra_delay_s=self.net.processing_s))

@@ -1,0 +1,137 @@
+"""Run-directory files of a chain run: time series, survey table and plots.
+
+- ``timeseries.csv``: long (columnar) table, one row per node and tick of realization 0;
+- ``surveys.csv``: the survey table the ground station received, one row per realization and station
+  (values are the surveying node's moving-averaged inclination/azimuth at the survey tick, thesis eqs
+  1.1-1.3; sigma_A^2 = P_psipsi + sigma_f^2 / (M (g sin I)^2), sigma_I^2 = sigma_f^2 / (M g^2) with
+  sigma_f the per-tick accelerometer noise and M the moving-average length);
+- ``ground_survey.csv``: the surveys of realization 0 that reached the ground station, in the CSV form of
+  ``nodesim uncertainty`` (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
+- ``yaw_error.png``: yaw error and bias estimate of every node against time (like thesis figs 4.14, 4.18).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from nodesim.chain.network import ChainRun  # noqa: E402
+from nodesim.results import atomic_write_with, write_csv  # noqa: E402
+from nodesim.units import G0_M_S2, rad_to_deg, wrap_pi  # noqa: E402
+
+
+def timeseries_columns(run: ChainRun, r: int = 0) -> dict[str, np.ndarray]:
+    cols: dict[str, list[np.ndarray]] = {}
+    for n in run.nodes:
+        part = {
+            "node": np.full(n.t_s.size, n.node_id),
+            "t_s": n.t_s,
+            "running": n.running.astype(int),
+            "update": n.update_mask[r].astype(int),
+            "update_age_s": n.update_age_s[r],
+            "true_yaw_deg": rad_to_deg(n.true_yaw_rad),
+            "true_inclination_deg": rad_to_deg(n.true_inclination_rad),
+            "true_azimuth_deg": rad_to_deg(n.true_azimuth_rad),
+            "yaw_est_deg": rad_to_deg(n.yaw_est_rad[r]),
+            "yaw_error_deg": rad_to_deg(wrap_pi(n.yaw_est_rad[r] - n.true_yaw_rad)),
+            "yaw_sigma_deg": rad_to_deg(np.sqrt(n.yaw_var_rad2[r])),
+            "bias_true_deg_s": rad_to_deg(n.true_bias_rad_s[r]),
+            "bias_est_deg_s": rad_to_deg(n.bias_est_rad_s[r]),
+            "inclination_deg": rad_to_deg(n.inclination_rad[r]),
+            "azimuth_deg": rad_to_deg(n.azimuth_rad[r]),
+        }
+        for key, value in part.items():
+            cols.setdefault(key, []).append(np.asarray(value))
+    return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
+    """One row per realization and received-or-lost survey."""
+    rows: dict[str, list] = {k: [] for k in (
+        "realization", "station", "md_m", "node", "t_survey_s", "arrival_s", "received", "inclination_deg",
+        "azimuth_deg", "sigma_inclination_deg", "sigma_azimuth_deg", "true_inclination_deg", "true_azimuth_deg")}
+    by_id = {n.node_id: n for n in run.nodes}
+    for g in run.surveys:
+        p = g.packet
+        n = by_id[p.node_id]
+        var_f = n.accel_sigma_m_s2**2 / run.moving_average_points
+        true_inc, true_azi = n.true_inclination_rad[p.tick], n.true_azimuth_rad[p.tick]
+        horizontal = G0_M_S2 * np.sin(true_inc)
+        sigma_i = np.sqrt(var_f) / G0_M_S2
+        for r in range(p.valid.shape[0]):
+            sigma_a = np.sqrt(n.yaw_var_rad2[r, p.tick] + var_f / max(horizontal, 1e-12) ** 2)
+            for key, value in (
+                ("realization", r), ("station", p.station), ("md_m", p.md_m), ("node", p.node_id),
+                ("t_survey_s", p.t_s), ("arrival_s", g.arrival_s), ("received", int(p.valid[r])),
+                ("inclination_deg", rad_to_deg(n.inclination_rad[r, p.tick])),
+                ("azimuth_deg", rad_to_deg(n.azimuth_rad[r, p.tick])),
+                ("sigma_inclination_deg", rad_to_deg(sigma_i)), ("sigma_azimuth_deg", rad_to_deg(sigma_a)),
+                ("true_inclination_deg", rad_to_deg(true_inc)),
+                ("true_azimuth_deg", rad_to_deg(true_azi)),
+            ):
+                rows[key].append(value)
+    order = np.lexsort((np.asarray(rows["station"]), np.asarray(rows["realization"]))) if rows["station"] else []
+    return {k: np.asarray(v)[order] for k, v in rows.items()}
+
+
+def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str, np.ndarray]:
+    """Realization ``r``'s received surveys in the ``nodesim uncertainty`` CSV columns."""
+    sel = (table["realization"] == r) & (table["received"] == 1)
+    return {
+        "md_m": table["md_m"][sel],
+        "inc_deg": table["inclination_deg"][sel],
+        "azi_deg": table["azimuth_deg"][sel],
+        "time_s": table["arrival_s"][sel],
+        "sigma_inc_deg": table["sigma_inclination_deg"][sel],
+        "sigma_azi_deg": table["sigma_azimuth_deg"][sel],
+    }
+
+
+def plot_chain_run(run: ChainRun, path: Path, title: str, r: int = 0) -> None:
+    """Yaw error and bias estimate (with the true bias dashed) of every node, realization ``r``."""
+    fig, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    lo, hi = np.inf, -np.inf
+    for i, n in enumerate(run.nodes):
+        c = colors[i % len(colors)]
+        show = n.running
+        t = np.where(show, n.t_s, np.nan)
+        label = f"node {n.node_id}"
+        axes[0].plot(t, rad_to_deg(wrap_pi(n.yaw_est_rad[r] - n.true_yaw_rad)), lw=0.7, color=c, label=label)
+        axes[1].plot(t, rad_to_deg(n.bias_est_rad_s[r]), lw=0.7, color=c, label=label)
+        axes[1].plot(t, rad_to_deg(n.true_bias_rad_s[r]), lw=0.7, ls="--", color=c)
+        if show.any():
+            both = np.concatenate([n.bias_est_rad_s[r][show], n.true_bias_rad_s[r][show]])
+            lo, hi = min(lo, rad_to_deg(both.min())), max(hi, rad_to_deg(both.max()))
+    axes[0].set_ylabel("yaw error [deg]")
+    axes[1].set_ylabel("z-gyro bias [deg/s]\n(dashed: true)")
+    axes[1].set_xlabel("time [s]")
+    if np.isfinite(lo):
+        pad = 0.1 * (hi - lo) + 1e-3
+        axes[1].set_ylim(lo - pad, hi + pad)
+    for ax in axes:
+        ax.axvline(run.rotation_end_s, color="0.3", lw=0.6, ls=":")
+        ax.grid(True, lw=0.3)
+    if len(run.nodes) <= 12:
+        axes[0].legend(loc="best", fontsize=7, ncol=2)
+    fig.suptitle(title)
+    fig.tight_layout()
+    atomic_write_with(path, lambda p: fig.savefig(p, dpi=110, format="png"))
+    plt.close(fig)
+
+
+def write_outputs(run: ChainRun, out: Path, title: str, per_realization: dict[str, np.ndarray], plots: bool) -> None:
+    R = next(iter(per_realization.values())).size
+    write_csv(out / "realizations.csv", {"realization": np.arange(R), **per_realization})
+    write_csv(out / "timeseries.csv", timeseries_columns(run))
+    if run.motion.stops:
+        table = survey_columns(run)
+        write_csv(out / "surveys.csv", table)
+        write_csv(out / "ground_survey.csv", ground_survey_columns(table))
+    if plots:
+        plot_chain_run(run, out / "yaw_error.png", title)

@@ -1,0 +1,90 @@
+"""Packets that travel along the chain, and the rule a node uses to pick its reference.
+
+Estimate packets go down (node n -> node n+1) and carry the payload of thesis digest 2.6
+{node_id, seq, t_read, psi_hat, P_psipsi, psi_dot_hat}; survey packets go up to the ground station
+{station, MD, node_id, t, I, A, sigma_I, sigma_A}.  A packet is part of the shared event skeleton (one SimPy
+event per hop, whatever the number of realizations R); what differs between realizations travels as arrays:
+the values and ``valid``, the realizations in which the packet exists (the sender applied an update and no
+hop lost it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class EstimatePacket:
+    """A node's estimate, forwarded to the next node down (arrays of shape (R,))."""
+
+    sender: int  # node id
+    seq: int  # per-sender sequence number, increasing
+    t_read_s: float  # true time at which the estimate is valid (the sender's tick)
+    yaw_rad: np.ndarray
+    yaw_var_rad2: np.ndarray  # P_psipsi
+    rate_rad_s: np.ndarray  # the sender's bias-corrected rate estimate
+    valid: np.ndarray  # bool (R,)
+
+    def lost_where(self, lost: np.ndarray) -> "EstimatePacket":
+        return replace(self, valid=self.valid & ~lost)
+
+
+@dataclass(frozen=True)
+class SurveyPacket:
+    """A survey sent up to the ground station.  The values are those of the node's firmware at tick
+    ``tick`` (causal moving average), filled into the survey table from the node's records after the run."""
+
+    station: int  # 1 = first station
+    md_m: float
+    node_id: int
+    tick: int
+    t_s: float
+    valid: np.ndarray  # bool (R,)
+
+    def lost_where(self, lost: np.ndarray) -> "SurveyPacket":
+        return replace(self, valid=self.valid & ~lost)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """What a node takes from its inbox at one tick (arrays of shape (R,))."""
+
+    have: np.ndarray  # bool: a fresh packet was chosen
+    yaw_rad: np.ndarray
+    yaw_var_rad2: np.ndarray
+    t_read_s: np.ndarray  # NaN where none
+    seq: np.ndarray  # int, -1 where none
+    stale: np.ndarray  # int counts of newer-than-used but too old packets
+    duplicate: np.ndarray  # int counts of packets with seq <= the last one used
+
+
+def select_reference(
+    inbox: list[EstimatePacket], last_seq: np.ndarray, t_use_s: float, max_age_s: float
+) -> Selection:
+    """Per realization, the newest packet with ``seq > last_seq`` and age ``t_use - t_read <= max_age``.
+
+    Packets with ``seq <= last_seq`` are duplicates; packets newer than the last used but older than
+    ``max_age`` are stale; both are ignored and counted (thesis digest 2.6: sequence number and age)."""
+    R = last_seq.shape[0]
+    have = np.zeros(R, dtype=bool)
+    yaw = np.zeros(R)
+    var = np.zeros(R)
+    t_read = np.full(R, np.nan)
+    seq = np.full(R, -1, dtype=np.int64)
+    stale = np.zeros(R, dtype=np.int64)
+    dup = np.zeros(R, dtype=np.int64)
+    for pkt in sorted(inbox, key=lambda p: p.seq, reverse=True):  # newest first
+        newer = pkt.valid & (pkt.seq > last_seq)
+        dup += pkt.valid & ~newer
+        if t_use_s - pkt.t_read_s > max_age_s:
+            stale += newer & ~have
+            continue
+        take = newer & ~have
+        yaw = np.where(take, pkt.yaw_rad, yaw)
+        var = np.where(take, pkt.yaw_var_rad2, var)
+        t_read = np.where(take, pkt.t_read_s, t_read)
+        seq = np.where(take, pkt.seq, seq)
+        have |= take
+    return Selection(have, yaw, var, t_read, seq, stale, dup)

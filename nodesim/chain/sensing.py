@@ -1,0 +1,107 @@
+"""Sensor adapter: the one place where the chain turns true motion into what a node and the encoder read.
+
+Today it wraps the tick-averaged stand-ins of :mod:`nodesim.sensors`; the full IMU/encoder models of the
+sensor issue plug in here without touching the network.  Per node n with true tick times T_n[k]:
+    gyro[k]  = (1 + s) * mean true rate over [T_n[k-1], T_n[k]) + b_n(T_n[k]) + white noise   (k = 0: rate 0)
+    b_n(t)   = turn-on bias + residual bias after the node's filter start (motion) + Gauss-Markov bias
+    accel[k] = sensor-frame specific force at the node's true inclination, azimuth and yaw + white noise
+(the z gyro sees the string spin; the node's yaw may differ from the spin angle by the wellpath twist)
+Random streams: node n's "gyro" and "accel" streams (nodesim.rng), one generator per realization.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodesim.chain.motion import ChainMotion
+from nodesim.rng import RunStreams
+from nodesim.scenario import Scenario
+from nodesim.sensors import AccelModel, GyroZModel
+from nodesim.sensors.encoder import RotaryEncoder
+from nodesim.units import DEG, G0_M_S2
+
+
+@dataclass(frozen=True)
+class NodeSignals:
+    """What one node reads at its ticks, and the truth behind it (arrays (R, K) unless noted)."""
+
+    t_s: np.ndarray  # (K,) true tick times
+    gyro_rad_s: np.ndarray
+    true_bias_rad_s: np.ndarray
+    true_yaw_rad: np.ndarray  # (K,)
+    true_inclination_rad: np.ndarray  # (K,)
+    true_azimuth_rad: np.ndarray  # (K,)
+    specific_force: np.ndarray  # (R, K, 3) sensor frame
+    gyro_white_sigma_rad_s: float  # per-tick white-noise sigma (used in R of the next node)
+    accel_sigma_m_s2: float  # per-tick, per-axis accelerometer noise sigma
+
+
+def gyro_model(scenario: Scenario) -> GyroZModel:
+    s = scenario.sensor
+    return GyroZModel(
+        arw_rad_per_sqrt_s=s.gyro_arw_deg_per_sqrt_s * DEG,
+        turn_on_bias_rad_s=s.gyro_turn_on_bias_deg_s * DEG,
+        residual_bias_rad_s=s.gyro_residual_bias_deg_s * DEG,
+        bias_instability_rad_s=s.gyro_bias_instability_deg_s * DEG,
+        bias_tau_s=s.gyro_bias_tau_s,
+        scale_factor_error=s.gyro_scale_factor_error,
+    )
+
+
+def node_signals(
+    scenario: Scenario, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray, dt_s: float
+) -> NodeSignals:
+    """Sensor readings of node ``node_index`` (0-based) at true tick times ``t_s`` for every realization."""
+    R = scenario.simulation.realizations
+    K = t_s.size
+    gyro = gyro_model(scenario)
+    accel = AccelModel(noise_m_s2_per_sqrt_hz=scenario.sensor.accel_noise_ug_per_sqrt_hz * 1e-6 * G0_M_S2)
+    timeline = motion.timelines[node_index]
+    rot = motion.rotation
+    gyro_rngs = streams.sensor_batch(R, node_index, "gyro")
+    gm = gyro.gauss_markov(gyro_rngs, K, dt_s)
+    true_bias = gyro.true_bias_rad_s(t_s[None, :], timeline.filter_start_s, gm)
+    true_rate = np.zeros(K)
+    if K > 1:
+        true_rate[1:] = rot.mean_rate_rad_s(t_s[:-1], t_s[1:])
+    meas = (1.0 + gyro.scale_factor_error) * true_rate[None, :] + true_bias + gyro.white_noise(gyro_rngs, K, dt_s)
+    att = motion.attitude(node_index, t_s)
+    f = accel.specific_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad)[None] + accel.noise(
+        streams.sensor_batch(R, node_index, "accel"), K, dt_s
+    )
+    return NodeSignals(
+        t_s=t_s,
+        gyro_rad_s=meas,
+        true_bias_rad_s=true_bias,
+        true_yaw_rad=att.yaw_rad,
+        true_inclination_rad=att.inclination_rad,
+        true_azimuth_rad=att.azimuth_rad,
+        specific_force=f,
+        gyro_white_sigma_rad_s=gyro.arw_rad_per_sqrt_s / np.sqrt(dt_s),
+        accel_sigma_m_s2=accel.noise_m_s2_per_sqrt_hz / np.sqrt(dt_s),
+    )
+
+
+@dataclass(frozen=True)
+class EncoderReader:
+    """The rotary encoder at the top of the string (:class:`nodesim.sensors.encoder.RotaryEncoder`): the
+    count nearest the string angle and the rate it sends with it (count difference over its rate window)."""
+
+    encoder: RotaryEncoder
+    motion: ChainMotion
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, motion: ChainMotion) -> "EncoderReader":
+        return cls(RotaryEncoder(counts_per_rev=scenario.sensor.encoder_counts_per_rev), motion)
+
+    @property
+    def variance_rad2(self) -> float:
+        """Quantisation variance (q^2 / 12): the R of an encoder update (thesis digest 2.6)."""
+        return self.encoder.quantisation_sigma_rad**2
+
+    def read(self, t_s: float) -> tuple[float, float]:
+        """(quantised yaw, differenced rate) read at true time ``t_s``."""
+        r = self.encoder.read(self.motion.rotation.yaw_rad, np.asarray(t_s, dtype=float))
+        return float(r.yaw_rad), float(r.rate_rad_s)

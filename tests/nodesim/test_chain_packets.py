@@ -1,0 +1,82 @@
+"""Reference selection from a node's inbox: newest fresh packet per realization; stale and duplicate
+packets ignored and counted (thesis digest 2.6: sequence numbers and packet age); links and loss draws."""
+
+import numpy as np
+import simpy
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nodesim.chain.links import LossDraws, SimpleLink
+from nodesim.chain.packets import EstimatePacket, select_reference
+from nodesim.rng import RunStreams
+
+
+def _pkt(seq, t_read, valid, yaw=None):
+    valid = np.asarray(valid, dtype=bool)
+    y = np.full(valid.shape, float(seq) if yaw is None else yaw)
+    return EstimatePacket(1, seq, t_read, y, np.full(valid.shape, 0.01 * (seq + 1)), np.zeros(valid.shape), valid)
+
+
+def test_newest_valid_packet_wins_per_realization():
+    inbox = [_pkt(3, 10.0, [1, 1, 0]), _pkt(4, 10.5, [1, 0, 0])]
+    sel = select_reference(inbox, np.array([-1, -1, -1]), 10.6, max_age_s=1.5)
+    assert sel.have.tolist() == [True, True, False]
+    assert sel.seq.tolist() == [4, 3, -1]
+    assert sel.yaw_rad[:2].tolist() == [4.0, 3.0]
+    assert np.isnan(sel.t_read_s[2])
+
+
+def test_duplicates_and_stale_packets_are_ignored_and_counted():
+    last = np.array([5, 2])
+    inbox = [_pkt(5, 10.0, [1, 1])]  # realization 0 already used seq 5: duplicate; realization 1 has not
+    sel = select_reference(inbox, last, 10.1, max_age_s=1.5)
+    assert sel.have.tolist() == [False, True]
+    assert sel.duplicate.tolist() == [1, 0]
+    stale = select_reference([_pkt(6, 5.0, [1, 1])], last, 10.0, max_age_s=1.5)  # 5 s old
+    assert not stale.have.any()
+    assert stale.stale.tolist() == [1, 1]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 20), st.floats(0.0, 5.0), st.lists(st.booleans(), min_size=4, max_size=4)),
+             max_size=6, unique_by=lambda x: x[0]),
+    st.lists(st.integers(-1, 20), min_size=4, max_size=4),
+)
+def test_selection_is_the_max_fresh_new_seq(packets, last):
+    """Property: the chosen seq is the largest valid seq > last with age <= max age, else none."""
+    t_use, max_age = 5.0, 2.0
+    inbox = [_pkt(seq, t, valid) for seq, t, valid in packets]
+    last = np.array(last)
+    sel = select_reference(inbox, last, t_use, max_age)
+    for r in range(4):
+        ok = [seq for seq, t, valid in packets if valid[r] and seq > last[r] and t_use - t <= max_age]
+        assert sel.seq[r] == (max(ok) if ok else -1)
+        assert sel.have[r] == bool(ok)
+        dups = sum(1 for seq, _, valid in packets if valid[r] and seq <= last[r])
+        assert sel.duplicate[r] == dups
+
+
+def test_loss_draws_do_not_depend_on_block_size():
+    streams = RunStreams(seed=3, n_nodes=2)
+    a = LossDraws([streams.link(r, 0) for r in range(3)], block=7)
+    b = LossDraws([streams.link(r, 0) for r in range(3)], block=256)
+    xa = np.stack([a.next_uniform() for _ in range(20)])
+    xb = np.stack([b.next_uniform() for _ in range(20)])
+    assert (xa == xb).all()
+
+
+def test_simple_link_delays_and_loses_with_the_given_probability():
+    streams = RunStreams(seed=9, n_nodes=1)
+    got = []
+    env = simpy.Environment()
+    link = SimpleLink.from_streams("l", streams, 0, 2000, delay_s=0.02, loss_probability=0.3)
+    env.process(link.send(env, _pkt(0, 0.0, np.ones(2000)), lambda p: got.append((env.now, p))))
+    env.run()
+    (t, p), = got
+    assert t == 0.02
+    assert abs((~p.valid).mean() - 0.3) < 0.04  # 2000 Bernoulli draws: sigma ~ 0.01
+    assert link.lost.sum() == (~p.valid).sum()
+    for prob, expect in ((0.0, True), (1.0, False)):
+        link = SimpleLink.from_streams("l", streams, 0, 5, delay_s=0.0, loss_probability=prob)
+        assert (link.draw_lost() != expect).all()

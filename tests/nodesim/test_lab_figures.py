@@ -1,0 +1,72 @@
+"""Lab figures (thesis table 4.22 and 4.2.3): what our chain reproduces, and the measured gap explained.
+
+The continuous-mode azimuth gap (ours ~0.13 deg vs the thesis's 0.029 deg) is accelerometer noise: with
+the MPU-6500 datasheet density N = 300 ug/sqrt(Hz) averaged over one 1.9 Hz tick and then by the 32-point
+MAF, the azimuth noise at inclination I is N sqrt(f) / sqrt(32) / sin(I) (thesis eq 1.3: A = atan2(f_y, f_x),
+so a horizontal force error e moves A by e / (g sin I)).
+"""
+
+import math
+
+import pytest
+
+from nodesim.chain import simulate_chain
+from nodesim.chain.metrics import per_realization_metrics, summarize
+from nodesim.scenario import Scenario
+from nodesim.validation.checks_lab import lab_summary
+
+QUIET_GYRO = {
+    "sensor.gyro_arw_deg_per_sqrt_s": 0.0,
+    "sensor.gyro_residual_bias_deg_s": 0.0,
+    "sensor.gyro_scale_factor_error": 0.0,
+    "sensor.gyro_bias_instability_deg_s": 0.0,
+    "sensor.encoder_counts_per_rev": 1 << 24,
+    "simulation.realizations": 16,
+}
+
+
+def _azimuth_rms(**over) -> float:
+    s = Scenario().with_overrides(**{**QUIET_GYRO, **over})
+    return summarize(per_realization_metrics(simulate_chain(s), s.metrics))["rms_azimuth_error_deg"]
+
+
+def test_continuous_azimuth_floor_is_the_accelerometer_noise():
+    floor = math.degrees(300e-6 * math.sqrt(1.9) / math.sqrt(32) / math.sin(math.radians(2.0)))
+    assert floor == pytest.approx(0.120, abs=0.001)
+    assert _azimuth_rms() == pytest.approx(floor, rel=0.1)  # perfect gyro: only the accelerometer is left
+    # halving the noise halves the error; a steeper hole shrinks it as 1 / sin(I)
+    assert _azimuth_rms(**{"sensor.accel_noise_ug_per_sqrt_hz": 150.0}) == pytest.approx(floor / 2, rel=0.1)
+    steep = _azimuth_rms(**{"motion.inclination_deg": 8.0})
+    assert steep == pytest.approx(floor * math.sin(math.radians(2.0)) / math.sin(math.radians(8.0)), rel=0.1)
+    # the real (bundled) continuous case: gyro errors add little on top of the floor; 0.029 deg is out of reach
+    ours = lab_summary("continuous")["rms_azimuth_error_deg"]
+    assert floor < ours < 1.25 * floor
+
+
+def test_azimuth_error_grows_with_timeout_length_thesis_table_4_22():
+    """Thesis table 4.22 trend (0.25 deg at 5 s up to 0.565 deg at 60 s; irregular at 50 s in the thesis)."""
+    azi = [lab_summary(n)["rms_azimuth_error_deg"] for n in
+           ("continuous", "windowed_20s_5s", "windowed_20s_30s", "windowed_20s_60s")]
+    assert azi == sorted(azi) and azi[-1] > 3 * azi[1]
+    for name, published in (("windowed_20s_30s", 0.351), ("windowed_20s_50s", 1.0), ("windowed_20s_60s", 0.565)):
+        assert published / 2 <= lab_summary(name)["rms_azimuth_error_deg"] <= 2 * published
+
+
+def test_bias_convergence_times_thesis_4_2_3():
+    """Thesis 4.2.3: ~46 s continuous, ~156 s with 60 s timeouts, ~120 s / ~165 s with single updates at
+    0.05 / 0.0167 Hz: each within a factor of two, and longer timeouts converge later."""
+    t = {n: lab_summary(n)["bias_convergence_time_s"] for n in
+         ("continuous", "windowed_20s_60s", "single_0p05hz", "single_0p0167hz")}
+    for name, published in (("continuous", 46.0), ("windowed_20s_60s", 156.0), ("single_0p05hz", 120.0),
+                            ("single_0p0167hz", 165.0)):
+        assert published / 2 <= t[name] <= 2 * published
+    assert t["continuous"] < t["windowed_20s_60s"] and t["single_0p05hz"] < t["single_0p0167hz"]
+
+
+def test_two_nodes_node_b_inherits_node_a_error():
+    """Thesis two-node experiment: node B (fed by A) is worse than A; ours on the yaw error (the azimuth
+    difference, ~0.003 deg, is below the accelerometer noise of each node)."""
+    s = lab_summary("two_nodes_0p8hz")
+    assert s["node2_rms_yaw_error_deg"] > s["node1_rms_yaw_error_deg"]
+    assert s["node1_update_fraction"] == pytest.approx(0.8 / 1.9, rel=0.02)
+    assert s["node2_update_fraction"] == pytest.approx(s["node1_update_fraction"], rel=0.01)
