@@ -4,15 +4,14 @@ One row per node and firmware tick from the node's power-up (``tick`` = 1), SI u
   - ``gyro_z``: the tick-averaged z-gyro rate the node's filter used (``gyro_x``/``gyro_y`` are 0: the chain
     simulates the z axis only); ``accel_*``: the tick-averaged sensor-frame specific force;
   - ``encoder``: the encoder reading at the tick (the lab setup starts every node from it);
+  - ``static``, ``hold``: the node's static bias window and its tube-insertion holds;
   - ``ref_update``, ``ref_yaw``, ``ref_var``: the reference each applied update used (encoder for the top node,
     the forwarded estimate advanced by eq 3.29 for the others) - the recorded schedule;
-  - ``hold``: not in the format: holding ticks (tube insertions) are written as ticks without output;
   - ``fw_yaw``, ``fw_yaw_var``, ``fw_bias``, ``fw_inclination``, ``fw_azimuth``: the node's outputs (the
     static window has yaw only, like the firmware);
   - ``true_yaw``, ``true_inclination``, ``true_azimuth``: the truth.
 Replaying the log with the scenario as firmware configuration reproduces the outputs bit for bit on lab
-runs (``tests/nodesim/replay/test_round_trip.py``); drilling runs (tube insertions, per-node filter starts)
-are not covered by the replay (documented in the README).
+and drilling runs (``tests/nodesim/replay/test_round_trip.py``).
 """
 
 from __future__ import annotations
@@ -30,6 +29,7 @@ from nodesim.scenario import Scenario
 def chain_recordings(run, scenario: Scenario, realization: int = 0) -> list[NodeRecording]:
     """Per-node recordings of realization ``realization`` of a ChainRun."""
     motion: ChainMotion = run.motion
+    timelines = {tl.node_id: tl for tl in motion.timelines}
     encoder = EncoderReader.from_scenario(scenario, motion)
     r = realization
     out = []
@@ -41,9 +41,12 @@ def chain_recordings(run, scenario: Scenario, realization: int = 0) -> list[Node
         size = t.size
         force = n.specific_force[r][present]
         applied = n.update_mask[r][present]
+        tl = timelines[n.node_id]
         cols = {
             "t_s": t,
             "tick": np.ones(size, dtype=bool),
+            "static": t < n.filter_start_s,
+            "hold": np.array([tl.holding(tk) for tk in t], dtype=bool),
             "gyro_x": np.zeros(size),
             "gyro_y": np.zeros(size),
             "gyro_z": n.gyro_rad_s[r][present],

@@ -15,6 +15,10 @@ optional columns
     ``mag_x``, ``mag_y``, ``mag_z``          magnetometer, unit ``mag_unit`` (read, not used by the yaw filter)
     ``tick``                     1 on the rows where the recorded firmware ticked (its tick times); without it
                                  the replay ticks at the configured firmware rate from the node's first sample
+    ``static``                   1 on the ticks of the firmware's static bias window (without it: the ticks before
+                                 t_log + the configured window, t_log the log's first time)
+    ``hold``                     1 on the ticks where the node holds its state (powered-down link during a tube
+                                 insertion: no time update, no reference)
     ``ref_update``               1 where the firmware applied a reference update at that tick (recorded schedule)
     ``ref_yaw``, ``ref_var``     the reference yaw (``angle_unit``) and its variance (``angle_unit``^2) the
                                  firmware used at that update (delay-compensated, thesis eq 3.29)
@@ -56,10 +60,11 @@ ACCEL = ("accel_x", "accel_y", "accel_z")
 FIRMWARE_OUTPUTS = ("fw_yaw", "fw_yaw_var", "fw_bias", "fw_inclination", "fw_azimuth")
 TRUTH = ("true_yaw", "true_inclination", "true_azimuth")
 OPTIONAL = (
-    "node", "temperature_c", "mag_x", "mag_y", "mag_z", "tick", "ref_update", "ref_yaw", "ref_var", "seq",
+    "node", "temperature_c", "mag_x", "mag_y", "mag_z", "tick", "static", "hold", "ref_update", "ref_yaw", "ref_var",
+    "seq",
     *FIRMWARE_OUTPUTS, *TRUTH,
 )
-FLAGS = ("tick", "ref_update")
+FLAGS = ("tick", "static", "hold", "ref_update")
 USER_PREFIX = "x_"
 
 UNITS = {

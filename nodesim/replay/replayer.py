@@ -5,18 +5,18 @@ Per node (each node of a multi-node log is replayed with the references it recor
      grid t_0 + k / f_firmware from the node's first sample to its last;
   2. resampling: each tick averages the samples in (t_{k-1}, t_k] (gyro z and the accelerometer triad,
      :func:`nodesim.sensors.imu.average_per_tick`); a tick inside a repaired gap holds the previous average;
-  3. static window (ticks with t < t_log + ``bias_window_s``, t_log the log's first time): the gyro is summed
-     for the initial bias and the reported yaw is the encoder's;
+  3. static window (the ticks the log marks ``static``, else those with t < t_log + ``bias_window_s``, t_log
+     the log's first time): the gyro is summed for the initial bias and the reported yaw is the encoder's;
   4. the first tick after it starts the filter from the encoder yaw and the mean bias (no time update in
      that tick); every later tick runs the time update with the tick's gyro mean, then a measurement update
-     where the schedule gives a reference;
+     where the schedule gives a reference, except the ticks marked ``hold`` (state kept, nothing done);
   5. the survey: inclination and azimuth from the tick-averaged specific force and the yaw (thesis eqs
      1.1-1.3), then the firmware's N-point moving average.
 This is the convention of the chain simulation's node process (``nodesim.chain.node``), so a log it
 recorded replays bit for bit.  Schedules:
   - ``recorded``: the updates the log records (``ref_update``, with ``ref_yaw`` and ``ref_var``);
   - imposed (``continuous``, ``windowed:U:T``, ``single:F``, ``none``, or ``config`` for the firmware
-    configuration's ``[schedule]``): :class:`nodesim.schedules.UpdateSchedule` evaluated at t - t_log.
+    configuration's ``[schedule]``, which may also be ``arbitrary`` windows): :class:`nodesim.schedules.UpdateSchedule` evaluated at t - t_log.
     A scheduled tick uses the reference the log recorded at that tick when it has one; otherwise, on the
     top node, the latest encoder reading at or before the tick with the quantisation variance q^2 / 12.
     Nodes below the top only get recorded references (they are not re-propagated down the chain).
@@ -25,20 +25,21 @@ recorded replays bit for bit.  Schedules:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
 from nodesim.allan import AllanNoise, overlapping_adev, read_noise
+from nodesim.chain.estimator import filter_config
+from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
 from nodesim.replay.reader import NodeLog, ReplayLog
 from nodesim.scenario import Scenario
 from nodesim.schedules import UpdateSchedule
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.sensors.imu import average_per_tick
-from nodesim.units import DEG
 
 SCHEDULE_HELP = "recorded | config | continuous | none | windowed:UPDATE_S:TIMEOUT_S | single:RATE_HZ"
 
@@ -61,15 +62,9 @@ class FirmwareSetup:
     @classmethod
     def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
         s, f = scenario.sensor, scenario.filter
-        config = YawFilterConfig(
-            dt_s=1.0 / scenario.chain.firmware_rate_hz,
-            arw_rad_per_sqrt_s=noise.arw if noise else s.gyro_arw_deg_per_sqrt_s * DEG,
-            bias_instability_rad_s=noise.bias_instability if noise else s.gyro_bias_instability_deg_s * DEG,
-            bias_tau_s=f.bias_tau_s,
-            tuning_a=f.tuning_a,
-            tuning_b=f.tuning_b,
-        )
-        sch = scenario.schedule
+        config = filter_config(scenario)  # the chain's own tuning, so a recorded run replays bit for bit
+        if noise is not None:
+            config = replace(config, arw_rad_per_sqrt_s=noise.arw, bias_instability_rad_s=noise.bias_instability)
         return cls(
             implementation=f.implementation,
             filter_config=config,
@@ -77,7 +72,7 @@ class FirmwareSetup:
             bias_window_s=scenario.motion.stationary_s,
             moving_average_points=f.moving_average_points,
             encoder_variance_rad2=RotaryEncoder(counts_per_rev=s.encoder_counts_per_rev).quantisation_sigma_rad ** 2,
-            config_schedule=UpdateSchedule(sch.mode, sch.update_s, sch.timeout_s, sch.single_rate_hz),
+            config_schedule=schedule_of(scenario),
             noise_source="allan" if noise else "config",
         )
 
@@ -212,11 +207,12 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
     K = ticks.size
     yaw, pvar, bias = np.full(K, np.nan), np.full(K, np.nan), np.full(K, np.nan)
     applied, running = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
-    filter_start = t_log + setup.bias_window_s
+    static = (_per_tick(node, ticks, "static") == 1.0) if node.has("static") else ticks < t_log + setup.bias_window_s
+    hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(K, dtype=bool)
     no_enc = node.encoder_rad is None
     bias_sum, bias_n, kf = np.zeros(1), 0, None
     for k in range(K):
-        if ticks[k] < filter_start:
+        if static[k]:
             bias_sum += gyro[k : k + 1]
             bias_n += 1
             yaw[k] = 0.0 if no_enc else enc[k]
@@ -225,7 +221,7 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
             y0 = 0.0 if no_enc else enc[k]  # no encoder: the yaw is relative to the start
             kf = make_yaw_filter(setup.implementation, setup.filter_config, 1, np.array([y0]),
                                  bias_sum / bias_n if bias_n else 0.0)
-        else:
+        elif not hold[k]:
             kf.predict(gyro[k : k + 1])
             if mask[k]:
                 kf.update(ref[k : k + 1], var[k : k + 1])
