@@ -148,8 +148,10 @@ def propagation_constants(f_hz, eps_real, eps_imag, mu_r=1.0):
     e2 = check_range("eps_imag", eps_imag, 0.0, None)
     mu = check_positive("mu_r", mu_r)
     k = 2.0 * np.pi * f / C0_M_S * np.sqrt(mu * e1 / 2.0)
-    root = np.sqrt(1.0 + (e2 / e1) ** 2)
-    return k * np.sqrt(root - 1.0), k * np.sqrt(root + 1.0)
+    tan2 = np.square(e2 / e1)
+    root = np.sqrt(1.0 + tan2)
+    # root - 1 written as tan^2 / (root + 1): no cancellation for tiny loss tangents (alpha would round to 0)
+    return k * np.sqrt(tan2 / (root + 1.0)), k * np.sqrt(root + 1.0)
 
 
 def free_space_path_loss_db(distance_m, f_hz):

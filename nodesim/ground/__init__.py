@@ -4,6 +4,9 @@ Modules: ``survey`` (validated input), ``wellpath`` (minimum curvature, balanced
 interpolation, vertical section, A/B axes), ``fusion`` (recursive Bayes, cluster weighting, two-sigma
 rule), ``derivatives`` + ``weighting`` + ``errormodel`` + ``covariance`` (ISCWSA engine with running
 sums), ``ellipsoid`` (HLA, axes, confidence), ``tools`` (tool models as data), ``iscwsa`` (example wells).
+Magnetic survey baseline: ``magnetic_survey`` (triads <-> survey), ``msa`` (Multi-Station Analysis),
+``msa_montecarlo``, ``msa_surveys`` (HV/SV test trajectories), ``wls`` (probabilistic estimate, covariance
+method), ``magnetic_tool`` (a magnetic MWD tool for simulation runs).
 """
 
 from nodesim.ground.covariance import Site, Uncertainty, propagate

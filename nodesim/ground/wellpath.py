@@ -65,14 +65,22 @@ class Wellpath:
 
 def course_displacements(survey: Survey, method: str = "minimum_curvature") -> np.ndarray:
     """Displacement of each course k-1 -> k, shape (n-1, 3)."""
-    t = unit_tangent(survey.inc_rad, survey.azi_rad)
-    dmd = np.diff(survey.md_m)
-    half = 0.5 * dmd[:, None] * (t[:-1] + t[1:])
+    return displacements(survey.md_m, survey.inc_rad, survey.azi_rad, method)
+
+
+def displacements(md_m, inc_rad, azi_rad, method: str = "minimum_curvature") -> np.ndarray:
+    """Course displacements for arrays with leading batch axes: inc/azi (..., n) -> (..., n-1, 3).
+
+    The batched form serves Monte Carlo runs (one survey per replication, same MDs)."""
+    inc, azi = np.broadcast_arrays(np.asarray(inc_rad, dtype=float), np.asarray(azi_rad, dtype=float))
+    t = unit_tangent(inc, azi)
+    dmd = np.diff(np.asarray(md_m, dtype=float), axis=-1)
+    half = 0.5 * dmd[..., :, None] * (t[..., :-1, :] + t[..., 1:, :])
     if method == "balanced_tangential":
         return half
     if method == "minimum_curvature":
-        dl = dogleg_rad(survey.inc_rad[:-1], survey.azi_rad[:-1], survey.inc_rad[1:], survey.azi_rad[1:])
-        return half * ratio_factor(dl)[:, None]
+        dl = dogleg_rad(inc[..., :-1], azi[..., :-1], inc[..., 1:], azi[..., 1:])
+        return half * ratio_factor(dl)[..., None]
     raise NodesimError(f"wellpath method '{method}' unknown; allowed: minimum_curvature, balanced_tangential")
 
 

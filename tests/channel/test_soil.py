@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from channel import soil
@@ -72,6 +72,7 @@ def test_friis_free_space_limit_when_alpha_goes_to_zero():
 
 @settings(max_examples=60, deadline=None)
 @given(e1=st.floats(1.0, 100.0), tan=st.floats(0.0, 2.0))
+@example(e1=1.0, tan=7e-9)  # tiny loss tangent: root - 1 cancelled to 0 before the stable form
 def test_propagation_constants_satisfy_the_complex_wavenumber(e1, tan):
     """(beta - j alpha)^2 = k0^2 (eps' - j eps'') exactly."""
     f = 868e6
@@ -123,4 +124,6 @@ def test_vectorised_equals_scalar_path():
     vec = soil.soil_path_loss(868e6, d, soil.Soil(sand=sand, clay=clay, vwc=vwc)).path_loss_db
     one = [float(soil.soil_path_loss(868e6, d[i], soil.Soil(sand=sand[i], clay=clay[i], vwc=vwc[i])).path_loss_db)
            for i in range(20)]
-    np.testing.assert_array_equal(vec, one)
+    # numpy's SIMD power loop (used by the Peplinski ** (1/alpha)) is not bit-identical to its scalar loop: the
+    # permittivities differ in the last ulp between the two paths, so equality is checked to a few ulps.
+    np.testing.assert_allclose(vec, one, rtol=1e-14, atol=0)
