@@ -19,6 +19,7 @@ from nodesim.scenario import Scenario
 class RunOutcome:
     out_dir: Path
     summary: dict
+    run: object = None  # the ChainRun (nodesim run --record writes it as a replay log)
 
 
 def run_scenario(
@@ -55,4 +56,4 @@ def run_scenario(
             "host": host_info(),
         },
     )
-    return RunOutcome(out_dir=out, summary=summary)
+    return RunOutcome(out_dir=out, summary=summary, run=run)

@@ -77,6 +77,12 @@ class NodeRun:
     filter_start_s: float
     accel_sigma_m_s2: float
     firmware_overflows: dict  # fixed-point saturation/overflow events per site (empty for the float filter)
+    # what the firmware read and the references it used (for replay logs, nodesim.replay.chain_log)
+    gyro_rad_s: np.ndarray | None = None  # (R, K) tick-averaged z gyro
+    specific_force: np.ndarray | None = None  # (R, K, 3) sensor frame
+    ref_yaw_rad: np.ndarray | None = None  # (R, K) NaN where no update
+    ref_var_rad2: np.ndarray | None = None
+    present_from_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -196,6 +202,11 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         filter_start_s=node.timeline.filter_start_s,
         accel_sigma_m_s2=node.sig.accel_sigma_m_s2,
         firmware_overflows=dict(node.kf.overflow_counts) if node.kf is not None else {},
+        gyro_rad_s=node.sig.gyro_rad_s,
+        specific_force=node.sig.specific_force,
+        ref_yaw_rad=node.ref_yaw,
+        ref_var_rad2=node.ref_var,
+        present_from_s=node.timeline.present_from_s,
     )
 
 

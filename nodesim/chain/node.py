@@ -65,6 +65,8 @@ class ChainNode:
         self.bias = np.full((R, K), np.nan)
         self.applied = np.zeros((R, K), dtype=bool)
         self.age = np.full((R, K), np.nan)
+        self.ref_yaw = np.full((R, K), np.nan)  # the reference each update used (replay logs record it)
+        self.ref_var = np.full((R, K), np.nan)
         self.running = np.zeros(K, dtype=bool)  # filter running and not holding
         self.stops = [s for s in net.motion.stops if s.node_id == node_id]
         self.opportunity = False  # a reference reached this tick (in any realization): the wave moves on
@@ -122,6 +124,7 @@ class ChainNode:
         have = ~(lost_request | lost_reply)
         ref = np.full(have.shape, yaw_enc - rate_enc * (t_read - t))
         self.kf.update(ref, self.net.encoder.variance_rad2, mask=have)
+        self.ref_yaw[:, k], self.ref_var[:, k] = ref, self.net.encoder.variance_rad2
         self.applied[:, k] = have
         self.age[:, k] = np.where(have, env.now - t_read, np.nan)
 
@@ -143,6 +146,7 @@ class ChainNode:
         ref, var = forwarded_reference(sel.yaw_rad, var_in, omega, transfer, self.sig.gyro_white_sigma_rad_s,
                                        self.net.offset_sigma_rad)
         self.kf.update(ref, var, mask=sel.have)
+        self.ref_yaw[:, k], self.ref_var[:, k] = ref, var
         self.last_seq = np.where(sel.have, sel.seq, self.last_seq)
         self.applied[:, k] = sel.have
         self.age[:, k] = np.where(sel.have, transfer, np.nan)

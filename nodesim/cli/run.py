@@ -19,13 +19,12 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=None, help="override the scenario's root seed")
     p.add_argument("--realizations", type=int, default=None, help="override simulation.realizations")
     p.add_argument("--dry-run", action="store_true", help="validate and print the resolved scenario; write nothing")
-    p.add_argument("--record", type=Path, default=None, help="also write the run as a replayable log (not yet)")
+    p.add_argument("--record", type=Path, default=None, help="also write realization 0 as a replay log (.csv or .parquet; nodesim replay reads it)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from nodesim.errors import NodesimError
     from nodesim.runner import run_scenario
     from nodesim.scenario import load_scenario
 
@@ -37,12 +36,14 @@ def run(args) -> int:
         overrides["simulation.realizations"] = args.realizations
     if overrides:
         scenario = scenario.with_overrides(**overrides)
-    if args.record is not None:
-        raise NodesimError("--record is not implemented yet (it arrives with log replay)")
     if args.dry_run:
         sys.stdout.write(dumps_json(scenario.model_dump()).decode())
         return 0
     outcome = run_scenario(scenario, digest, args.out)
+    if args.record is not None:
+        from nodesim.replay.chain_log import record_chain_run
+
+        record_chain_run(args.record, outcome.run, scenario)
     if args.json:
         sys.stdout.write(dumps_json(outcome.summary).decode())
     else:

@@ -138,6 +138,16 @@ def _systematic_cov(e: np.ndarray, e_star: np.ndarray) -> np.ndarray:
     return v[..., :, None] * v[..., None, :]
 
 
+def prepare(survey: Survey, model: ErrorModel, site: Site | None, method: str):
+    """What every propagation needs: the model with the survey's own sigmas added, the wellpath, the
+    weighting context and the survey derivatives (shared by :func:`propagate` and the O(n^2) oracle)."""
+    model = with_survey_sigmas(survey, model)
+    path = wellpath(survey, method)
+    ctx = make_context(survey, path, model, site or Site())
+    deriv = survey_derivatives(survey, surface_tie_on=model.surface_tie_on)
+    return model, path, ctx, deriv
+
+
 def propagate(
     survey: Survey,
     model: ErrorModel,
@@ -149,11 +159,7 @@ def propagate(
 
     A survey carrying per-station angle sigmas adds them as random terms (:func:`with_survey_sigmas`);
     ``Uncertainty.model`` is the model actually used."""
-    site = site or Site()
-    model = with_survey_sigmas(survey, model)
-    path = wellpath(survey, method)
-    ctx = make_context(survey, path, model, site)
-    deriv = survey_derivatives(survey, surface_tie_on=model.surface_tie_on)
+    model, path, ctx, deriv = prepare(survey, model, site, method)
     n = len(survey)
     if not model.sources:
         zeros = np.zeros((n, 3, 3))

@@ -6,20 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodesim.ground.covariance import Site, error_vectors, make_context, with_survey_sigmas
-from nodesim.ground.derivatives import survey_derivatives
+from nodesim.ground.covariance import Site, error_vectors, prepare
 from nodesim.ground.errormodel import ErrorModel
 from nodesim.ground.survey import Survey
-from nodesim.ground.wellpath import wellpath
 
 
 def propagate_pairwise(survey: Survey, model: ErrorModel, site: Site | None = None, method: str = "minimum_curvature") -> np.ndarray:
     """Total NEV covariance (n, 3, 3) by explicit sums over the stations above each station."""
-    site = site or Site()
-    model = with_survey_sigmas(survey, model)
-    path = wellpath(survey, method)
-    ctx = make_context(survey, path, model, site)
-    deriv = survey_derivatives(survey, surface_tie_on=model.surface_tie_on)
+    model, _, ctx, deriv = prepare(survey, model, site, method)
     n = len(survey)
     total = np.zeros((n, 3, 3))
     for src in model.sources:

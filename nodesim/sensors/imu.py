@@ -195,12 +195,14 @@ class ImuSpec:
         )
 
 
-def average_per_tick(sample_t_s: np.ndarray, values: np.ndarray, tick_t_s: np.ndarray) -> np.ndarray:
+def average_per_tick(sample_t_s: np.ndarray, values: np.ndarray, tick_t_s: np.ndarray, hold_empty: bool = False) -> np.ndarray:
     """Mean of the samples in (t_{k-1}, t_k] for each firmware tick k (sample axis = -2 of ``values``).
 
     This is the firmware's averaging of every sensor sample received since its last tick.  The first
     tick averages the samples in (t_0 - (t_1 - t_0), t_0].  A tick without a sample raises an error
-    (the sensor must be faster than the firmware).
+    (the sensor must be faster than the firmware) unless ``hold_empty``: then it repeats the previous
+    tick's mean (the first tick must still have a sample).  Each tick sums its own samples
+    (``np.add.reduceat``), so a tick with one sample gets that sample bit for bit.
     """
     t = np.asarray(sample_t_s, dtype=float)
     ticks = np.asarray(tick_t_s, dtype=float)
@@ -209,9 +211,15 @@ def average_per_tick(sample_t_s: np.ndarray, values: np.ndarray, tick_t_s: np.nd
     edges = np.concatenate([[ticks[0] - (ticks[1] - ticks[0])], ticks])
     idx = np.searchsorted(t, edges, side="right")  # samples with t <= edge come before idx
     counts = np.diff(idx)
-    if np.any(counts == 0):
-        k = int(np.flatnonzero(counts == 0)[0])
+    empty = counts == 0
+    if np.any(empty) and (not hold_empty or empty[0]):
+        k = int(np.flatnonzero(empty)[0])
         raise NodesimError(f"average_per_tick: firmware tick {k} (t = {ticks[k]:.4g} s) has no sensor sample")
     v = np.asarray(values, dtype=float)
-    csum = np.concatenate([np.zeros(v.shape[:-2] + (1,) + v.shape[-1:]), np.cumsum(v, axis=-2)], axis=-2)
-    return (np.take(csum, idx[1:], axis=-2) - np.take(csum, idx[:-1], axis=-2)) / counts[:, None]
+    full = ~empty
+    sums = np.add.reduceat(v[..., : idx[-1], :], idx[:-1][full], axis=-2)
+    means = sums / counts[full][:, None]
+    if not empty.any():
+        return means
+    src = np.maximum.accumulate(np.where(full, np.arange(ticks.size), 0))  # last tick with samples
+    return np.take(means, np.cumsum(full)[src] - 1, axis=-2)

@@ -1,0 +1,254 @@
+"""Feed a recorded log to the firmware model at its recorded times, as the node MCU would.
+
+Per node (each node of a multi-node log is replayed with the references it recorded):
+  1. ticks: the rows marked ``tick`` (the recorded firmware's own tick times) or, without that column, a
+     grid t_0 + k / f_firmware from the node's first sample to its last;
+  2. resampling: each tick averages the samples in (t_{k-1}, t_k] (gyro z and the accelerometer triad,
+     :func:`nodesim.sensors.imu.average_per_tick`); a tick inside a repaired gap holds the previous average;
+  3. static window (the ticks the log marks ``static``, else those with t < t_log + ``bias_window_s``, t_log
+     the log's first time): the gyro is summed for the initial bias and the reported yaw is the encoder's;
+  4. the first tick after it starts the filter from the encoder yaw and the mean bias (no time update in
+     that tick); every later tick runs the time update with the tick's gyro mean, then a measurement update
+     where the schedule gives a reference, except the ticks marked ``hold`` (state kept, nothing done);
+  5. the survey: inclination and azimuth from the tick-averaged specific force and the yaw (thesis eqs
+     1.1-1.3), then the firmware's N-point moving average.
+This is the convention of the chain simulation's node process (``nodesim.chain.node``), so a log it
+recorded replays bit for bit.  Schedules:
+  - ``recorded``: the updates the log records (``ref_update``, with ``ref_yaw`` and ``ref_var``);
+  - imposed (``continuous``, ``windowed:U:T``, ``single:F``, ``none``, or ``config`` for the firmware
+    configuration's ``[schedule]``, which may also be ``arbitrary`` windows): :class:`nodesim.schedules.UpdateSchedule` evaluated at t - t_log.
+    A scheduled tick uses the reference the log recorded at that tick when it has one; otherwise, on the
+    top node, the latest encoder reading at or before the tick with the quantisation variance q^2 / 12.
+    Nodes below the top only get recorded references (they are not re-propagated down the chain).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
+from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
+from nodesim.allan import AllanNoise, overlapping_adev, read_noise
+from nodesim.chain.estimator import filter_config
+from nodesim.chain.network import schedule_of
+from nodesim.errors import NodesimError
+from nodesim.replay.reader import NodeLog, ReplayLog
+from nodesim.scenario import Scenario
+from nodesim.schedules import UpdateSchedule
+from nodesim.sensors.encoder import RotaryEncoder
+from nodesim.sensors.imu import average_per_tick
+
+SCHEDULE_HELP = "recorded | config | continuous | none | windowed:UPDATE_S:TIMEOUT_S | single:RATE_HZ"
+
+
+@dataclass(frozen=True)
+class FirmwareSetup:
+    """What the replay needs from a firmware configuration (a scenario TOML: ``[filter]``, ``[schedule]``,
+    ``chain.firmware_rate_hz``, ``motion.stationary_s`` as the static bias window, ``sensor.gyro_*`` noise,
+    ``sensor.encoder_counts_per_rev``)."""
+
+    implementation: str
+    filter_config: YawFilterConfig
+    rate_hz: float
+    bias_window_s: float
+    moving_average_points: int
+    encoder_variance_rad2: float
+    config_schedule: UpdateSchedule
+    noise_source: str = "config"
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
+        s, f = scenario.sensor, scenario.filter
+        config = filter_config(scenario)  # the chain's own tuning, so a recorded run replays bit for bit
+        if noise is not None:
+            config = replace(config, arw_rad_per_sqrt_s=noise.arw, bias_instability_rad_s=noise.bias_instability)
+        return cls(
+            implementation=f.implementation,
+            filter_config=config,
+            rate_hz=scenario.chain.firmware_rate_hz,
+            bias_window_s=scenario.motion.stationary_s,
+            moving_average_points=f.moving_average_points,
+            encoder_variance_rad2=RotaryEncoder(counts_per_rev=s.encoder_counts_per_rev).quantisation_sigma_rad ** 2,
+            config_schedule=schedule_of(scenario),
+            noise_source="allan" if noise else "config",
+        )
+
+
+def parse_schedule(text: str, setup: FirmwareSetup) -> UpdateSchedule | None:
+    """``None`` for the recorded schedule, else the imposed :class:`UpdateSchedule`."""
+    parts = text.split(":")
+    mode = parts[0]
+    try:
+        if mode == "recorded" and len(parts) == 1:
+            return None
+        if mode == "config" and len(parts) == 1:
+            return setup.config_schedule
+        if mode in ("continuous", "none") and len(parts) == 1:
+            return UpdateSchedule(mode)
+        if mode == "windowed" and len(parts) == 3:
+            u, t = float(parts[1]), float(parts[2])
+            if u > 0 and t >= 0 and math.isfinite(u + t):
+                return UpdateSchedule("windowed", update_s=u, timeout_s=t)
+        if mode == "single" and len(parts) == 2:
+            r = float(parts[1])
+            if 0 < r <= 1000:
+                return UpdateSchedule("single", single_rate_hz=r)
+    except ValueError:
+        pass
+    raise NodesimError(f"--schedule {text!r}: allowed {SCHEDULE_HELP} (UPDATE_S > 0, TIMEOUT_S >= 0, 0 < RATE_HZ <= 1000)")
+
+
+def allan_noise_of(node: NodeLog, window_s: float | None = None, slope_tolerance: float = 0.05) -> AllanNoise:
+    """ARW and bias instability of the node's z gyro from the overlapping Allan deviation
+    (:mod:`nodesim.allan`) of its samples, over the first ``window_s`` seconds (all samples if None);
+    ``slope_tolerance``: how far from -1/2 a point of the ARW line may be (:func:`nodesim.allan.read_noise`)."""
+    t = node.t_s
+    sel = slice(None) if window_s is None else t < t[0] + window_s
+    rate, ts = node.gyro_rad_s[sel, 2], t[sel]
+    if rate.size < 100:
+        raise NodesimError(f"Allan noise: node {node.node_id} has {rate.size} gyro samples in the window; allowed >= 100")
+    dt = float(np.median(np.diff(ts)))
+    return read_noise(overlapping_adev(rate, dt), slope_tolerance=slope_tolerance)
+
+
+@dataclass(frozen=True)
+class NodeReplay:
+    """Firmware outputs of one replayed node, arrays (K,) at its ticks (NaN where the firmware gives none)."""
+
+    node_id: int
+    t_s: np.ndarray
+    yaw_rad: np.ndarray
+    yaw_var_rad2: np.ndarray
+    bias_rad_s: np.ndarray
+    inclination_rad: np.ndarray  # moving-averaged
+    azimuth_rad: np.ndarray
+    update: np.ndarray  # bool: reference update applied
+    running: np.ndarray  # bool: filter running (time update done)
+    encoder_rad: np.ndarray  # latest encoder reading at the tick (NaN without)
+    held_ticks: int
+    overflows: dict = field(default_factory=dict)
+
+
+def _per_tick(node: NodeLog, ticks: np.ndarray, name: str) -> np.ndarray:
+    """Recorded per-tick column: the last finite value among the rows in (t_{k-1}, t_k], NaN if none."""
+    out = np.full(ticks.size, np.nan)
+    v = node.extra[name].astype(float)
+    ok = np.isfinite(v)
+    k = np.searchsorted(ticks, node.t_s[ok], side="left")
+    inside = k < ticks.size
+    out[k[inside]] = v[ok][inside]
+    return out
+
+
+def tick_times(node: NodeLog, rate_hz: float) -> np.ndarray:
+    if node.has("tick"):
+        ticks = node.t_s[node.extra["tick"]]
+    else:
+        n = int(math.floor((node.t_s[-1] - node.t_s[0]) * rate_hz + 1e-9)) + 1
+        ticks = node.t_s[0] + np.arange(n) / rate_hz
+    if ticks.size < 2:
+        raise NodesimError(f"node {node.node_id}: {ticks.size} firmware tick(s) in the log; allowed >= 2")
+    return ticks
+
+
+def encoder_at(node: NodeLog, ticks: np.ndarray) -> np.ndarray:
+    """Latest finite encoder reading at or before each tick (NaN before the first reading)."""
+    if node.encoder_rad is None:
+        return np.full(ticks.size, np.nan)
+    ok = np.isfinite(node.encoder_rad)
+    te, ve = node.t_s[ok], node.encoder_rad[ok]
+    i = np.searchsorted(te, ticks, side="right") - 1
+    return np.where(i >= 0, ve[np.maximum(i, 0)], np.nan)
+
+
+def references(node: NodeLog, ticks: np.ndarray, enc: np.ndarray, schedule: UpdateSchedule | None, setup: FirmwareSetup,
+               t_log: float, is_top: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(scheduled mask, reference yaw, reference variance) per tick."""
+    has_rec = node.has("ref_update")
+    if has_rec:
+        rec = _per_tick(node, ticks, "ref_update") == 1.0
+        ref = np.where(rec, _per_tick(node, ticks, "ref_yaw"), np.nan)
+        var = np.where(rec, _per_tick(node, ticks, "ref_var"), np.nan)
+    else:
+        rec = np.zeros(ticks.size, dtype=bool)
+        ref = var = np.full(ticks.size, np.nan)
+    if schedule is None:
+        if not has_rec:
+            raise NodesimError(f"node {node.node_id}: the log records no reference updates (column ref_update); "
+                               f"impose a schedule: {SCHEDULE_HELP}")
+        return rec, ref, var
+    mask = schedule.mask(ticks - t_log, 1.0 / setup.rate_hz)
+    if is_top:
+        use_enc = mask & ~rec
+        if np.any(use_enc & ~np.isfinite(enc)):
+            k = int(np.flatnonzero(use_enc & ~np.isfinite(enc))[0])
+            raise NodesimError(f"node {node.node_id}: schedule '{schedule.describe()}' needs an encoder reading at tick {k} "
+                               f"(t = {ticks[k]:.6g} s) and the log has none before it; allowed --schedule none")
+        ref = np.where(use_enc, enc, ref)
+        var = np.where(use_enc, setup.encoder_variance_rad2, var)
+        return mask, ref, var
+    return mask & rec, ref, var
+
+
+def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float, is_top: bool,
+                hold_gaps: bool = False) -> NodeReplay:
+    """Run the firmware over one node's samples (see the module docstring)."""
+    ticks = tick_times(node, setup.rate_hz)
+    both = np.concatenate([node.gyro_rad_s[:, 2:3], node.accel_m_s2], axis=1)
+    avg = average_per_tick(node.t_s, both, ticks, hold_empty=hold_gaps)
+    edges = np.searchsorted(node.t_s, np.concatenate([[2 * ticks[0] - ticks[1]], ticks]), side="right")
+    held = int(np.count_nonzero(np.diff(edges) == 0))
+    gyro, force = avg[:, 0], avg[:, 1:]
+    enc = encoder_at(node, ticks)
+    mask, ref, var = references(node, ticks, enc, schedule, setup, t_log, is_top)
+    K = ticks.size
+    yaw, pvar, bias = np.full(K, np.nan), np.full(K, np.nan), np.full(K, np.nan)
+    applied, running = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
+    static = (_per_tick(node, ticks, "static") == 1.0) if node.has("static") else ticks < t_log + setup.bias_window_s
+    hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(K, dtype=bool)
+    no_enc = node.encoder_rad is None
+    bias_sum, bias_n, kf = np.zeros(1), 0, None
+    for k in range(K):
+        if static[k]:
+            bias_sum += gyro[k : k + 1]
+            bias_n += 1
+            yaw[k] = 0.0 if no_enc else enc[k]
+            continue
+        if kf is None:
+            y0 = 0.0 if no_enc else enc[k]  # no encoder: the yaw is relative to the start
+            kf = make_yaw_filter(setup.implementation, setup.filter_config, 1, np.array([y0]),
+                                 bias_sum / bias_n if bias_n else 0.0)
+        elif not hold[k]:
+            kf.predict(gyro[k : k + 1])
+            if mask[k]:
+                kf.update(ref[k : k + 1], var[k : k + 1])
+                applied[k] = True
+            running[k] = True
+        yaw[k], pvar[k], bias[k] = kf.yaw_rad[0], kf.yaw_variance_rad2[0], kf.bias_rad_s[0]
+    inc, azi = np.full(K, np.nan), np.full(K, np.nan)
+    have = np.isfinite(yaw)
+    if have.any():
+        first = int(np.argmax(have))
+        i_raw, a_raw = resolve_survey(force[first:], yaw[first:])
+        inc[first:] = trailing_moving_average(i_raw, setup.moving_average_points)
+        azi[first:] = circular_moving_average(a_raw, setup.moving_average_points)
+    return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held,
+                      kf.overflow_counts if kf is not None else {})
+
+
+def replay_log(log: ReplayLog, setup: FirmwareSetup, schedule: UpdateSchedule | None) -> tuple[NodeReplay, ...]:
+    """Replay every node; the lowest node id is the top (encoder-aided) node."""
+    t_log = min(float(n.t_s[0]) for n in log.nodes)
+    top = min(n.node_id for n in log.nodes)
+    if schedule is not None and schedule.mode != "none" and not log.meta.has_encoder:
+        recorded = all(n.has("ref_update") for n in log.nodes)
+        if not recorded:
+            raise NodesimError(f"{log.path}: the log has no encoder (encoder_unit = absent) and no recorded references; "
+                               f"schedule '{schedule.describe()}' needs one; allowed --schedule none")
+    return tuple(replay_node(n, setup, schedule, t_log, n.node_id == top, log.hold_gaps) for n in log.nodes)
+
+
+__all__ = ["FirmwareSetup", "NodeReplay", "parse_schedule", "replay_log", "replay_node", "allan_noise_of", "SCHEDULE_HELP"]
