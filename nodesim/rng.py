@@ -8,7 +8,19 @@ realization or a node never changes the streams of the others:
     realization r         = root.spawn(R)[r]                 (per realization)
       node n              = realization.spawn(N)[n]          (per node, 0 = top node)
         sensor stream k   = node.spawn(len(SENSOR_STREAMS))[k]   in the order of SENSOR_STREAMS
-      link l              = realization.spawn(N + L)[N + l]  (per link, after the node children)
+      link l              = realization.spawn(N + L)[N + l]  (per link, after the node children; L = 2N:
+                                                          down link l feeds node l + 1, up link N + l
+                                                          carries surveys from node l + 1)
+      radio hop h         = realization.spawn(3N + H)[3N + h]  (per physical hop h = 0..N-1, after the
+                                                          links: its shadowing draws)
+      skip link of node h = realization.spawn(4N + ...)[4N + h] down, [5N + h] up (the ad-hoc fallback
+                                                          from node h to the node after its neighbour)
+
+Realization index r of a run is ``simulation.first_realization + i`` for its i-th realization (i = 0..R-1):
+a run with R realizations is exactly the R runs of one realization each with first_realization = r, and
+every realization's draws are independent of R (the batched-equals-one-by-one test checks it).
+Per-transmission draws on link l, in order, per attempt of a realization that attempts: the data-frame
+loss uniform; with the ARQ MAC the ACK loss uniform; on a burst-loss hop the Gilbert-Elliott uniform.
 
 Child ``n`` of a ``SeedSequence`` depends only on the parent entropy and ``n`` (its ``spawn_key``), so
 the streams above are stable however many siblings are spawned.
@@ -35,9 +47,10 @@ class RunStreams:
 
     seed: int
     n_nodes: int
+    first_realization: int = 0
 
     def _realization(self, r: int) -> np.random.SeedSequence:
-        return _child(np.random.SeedSequence(self.seed), r)
+        return _child(np.random.SeedSequence(self.seed), self.first_realization + r)
 
     def sensor(self, realization: int, node: int, stream: str) -> np.random.Generator:
         """Generator for sensor ``stream`` (one of :data:`SENSOR_STREAMS`) of ``node`` in ``realization``."""
@@ -48,6 +61,14 @@ class RunStreams:
     def link(self, realization: int, link: int) -> np.random.Generator:
         """Generator for link ``link`` (0 = encoder/top hop) in ``realization``."""
         return np.random.default_rng(_child(self._realization(realization), self.n_nodes + link))
+
+    def radio(self, realization: int, hop: int) -> np.random.Generator:
+        """Generator for the radio hop ``hop`` (0 = surface to the top node) in ``realization``."""
+        return np.random.default_rng(_child(self._realization(realization), 3 * self.n_nodes + hop))
+
+    def skip_link(self, realization: int, node: int, up: bool = False) -> np.random.Generator:
+        """Generator for the fallback skip link of node ``node`` (1-based sender, down or up) in ``realization``."""
+        return np.random.default_rng(_child(self._realization(realization), (5 if up else 4) * self.n_nodes + node))
 
     def sensor_batch(self, realizations: int, node: int, stream: str) -> list[np.random.Generator]:
         """One generator per realization for a (node, stream): used to draw batched noise arrays."""

@@ -67,7 +67,7 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
             sigma_a = np.sqrt(n.yaw_var_rad2[r, p.tick] + var_f / max(horizontal, 1e-12) ** 2)
             for key, value in (
                 ("realization", r), ("station", p.station), ("md_m", p.md_m), ("node", p.node_id),
-                ("t_survey_s", p.t_s), ("arrival_s", g.arrival_s), ("received", int(p.valid[r])),
+                ("t_survey_s", p.t_s), ("arrival_s", g.arrival_s[r]), ("received", int(p.valid[r])),
                 ("inclination_deg", rad_to_deg(n.inclination_rad[r, p.tick])),
                 ("azimuth_deg", rad_to_deg(n.azimuth_rad[r, p.tick])),
                 ("sigma_inclination_deg", rad_to_deg(sigma_i)), ("sigma_azimuth_deg", rad_to_deg(sigma_a)),
