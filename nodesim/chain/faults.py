@@ -7,11 +7,13 @@ ad-hoc fallback to the next-but-one node.  None of them stops the run; their eff
   realization, advanced per attempt, on top of the hop's PER;
 * clock step of ``step_s`` at ``at_s``: the node's tick times from ``at_s`` on move by ``step_s`` (ticks that
   would not follow the previous one are dropped);
-* fallback (needs the ARQ MAC, which tells a sender that its frames went unacknowledged): after
-  ``fallback_after_failures`` frames in a row that no attempt delivered, a node sends to the node after its
-  neighbour over the skip hop (:mod:`nodesim.chain.radio`) if the skip hop's margin (shadowing included) is
-  at least ``fallback_min_margin_db``; per realization, and for good (a lost node is not retried).  The same
-  rule holds for surveys going up.  Faults are deterministic in time, so the event skeleton stays shared.
+* fallback (needs the ARQ MAC, which tells a sender that its frames went unacknowledged): once
+  ``fallback_after_failures`` frames in a row went unacknowledged by its neighbour, a node that fails again
+  sends the frame on to the node after its neighbour over the skip hop (:mod:`nodesim.chain.radio`), if the
+  skip hop's margin (shadowing included) is at least ``fallback_min_margin_db``; per realization.  It keeps
+  trying its neighbour first, so it returns to it when it answers again (after an outage).  Estimates going
+  down only: surveys going up through a dead node are lost.  Faults are deterministic in time, so the event
+  skeleton stays shared.
 """
 
 from __future__ import annotations
@@ -70,10 +72,12 @@ class Fallback:
                    f.fallback and scenario.mac.enabled and skip is not None,
                    np.zeros(R, dtype=np.int64), np.zeros(R, dtype=bool))
 
-    def record(self, sending: np.ndarray, delivered: np.ndarray, t_s: float) -> None:
-        """Count frames in a row that did not get through; switch where the skip hop's margin allows."""
+    def record(self, sending: np.ndarray, delivered: np.ndarray, t_s: float) -> np.ndarray:
+        """Count unacknowledged frames in a row; return where this failed frame goes over the skip hop."""
         if not self.enabled:
-            return
-        self.streak = np.where(sending & ~delivered, self.streak + 1, np.where(delivered, 0, self.streak))
+            return np.zeros(sending.shape, dtype=bool)
+        failed = sending & ~delivered
+        self.streak = np.where(failed, self.streak + 1, np.where(delivered, 0, self.streak))
         g = min(int(t_s / self.skip.step_s), self.skip.margin_db.shape[0] - 1)
-        self.active |= (self.streak >= self.after_failures) & (self.skip.margin_db[g] >= self.min_margin_db)
+        self.active = (self.streak > self.after_failures) & (self.skip.margin_db[g] >= self.min_margin_db)
+        return failed & self.active

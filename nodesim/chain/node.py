@@ -122,13 +122,15 @@ class ChainNode:
 
     def _encoder_update(self, k: int, t: float) -> None:
         """Request and reply over hop 1 (both on its down link's draws); the encoder answers the requests it
-        received, read at their arrival t_read and brought back to the tick with its rate."""
+        received, read at their arrival t_read and brought back to the tick with its rate; the age of the
+        reference is the reply's arrival minus t_read."""
         self.opportunity = True
         link, surface = self.net.down_links[self.index], self.net.surface
         R = self.yaw.shape[0]
         request = link.transfer(t, np.ones(R, dtype=bool), self.radio, surface)
         t_read = np.where(request.delivered, request.arrival_s, t)
-        reply = link.transfer(t_read, request.delivered, surface, self.radio)
+        # the reply goes out when the request's exchange (its ACK) is over: the node is half duplex
+        reply = link.transfer(np.where(request.delivered, request.end_s, t), request.delivered, surface, self.radio)
         have = reply.delivered
         yaw_enc, rate_enc = self.net.encoder.read_many(t_read)
         ref = yaw_enc - rate_enc * (t_read - t)
@@ -191,16 +193,14 @@ class ChainNode:
             valid=valid,
         )
         t_ready = self.ready_s + net.processing_s
-        fb = self.fallback
-        normal = valid & ~fb.active if fb.enabled else valid
         below = net.nodes[self.index + 1]
-        tr = net.down_links[self.index + 1].transfer(t_ready, normal, self.radio, below.radio, below.dead_at_s)
-        fb.record(normal, tr.delivered, t)
+        tr = net.down_links[self.index + 1].transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
+        skip = self.fallback.record(valid, tr.delivered, t)
         if tr.delivered.any():
             below.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
-        if fb.enabled and fb.active.any():
+        if skip.any():  # the neighbour did not answer: on to the node after it, once the exchange is over
             skip_to = net.nodes[self.index + 2]
-            tr = net.skip_down[self.node_id].transfer(t_ready, valid & fb.active, self.radio, skip_to.radio,
-                                                      skip_to.dead_at_s)
+            tr = net.skip_down[self.node_id].transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio,
+                                                      skip_to.radio, skip_to.dead_at_s)
             if tr.delivered.any():
                 skip_to.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
