@@ -20,7 +20,8 @@ Realization index r of a run is ``simulation.first_realization + i`` for its i-t
 a run with R realizations is exactly the R runs of one realization each with first_realization = r, and
 every realization's draws are independent of R (the batched-equals-one-by-one test checks it).
 Per-transmission draws on link l, in order, per attempt of a realization that attempts: the data-frame
-loss uniform; with the ARQ MAC the ACK loss uniform; on a burst-loss hop the Gilbert-Elliott uniform.
+loss uniform; with the ARQ MAC the ACK loss uniform; on a burst-loss hop the Gilbert-Elliott state and
+loss uniforms.
 
 Child ``n`` of a ``SeedSequence`` depends only on the parent entropy and ``n`` (its ``spawn_key``), so
 the streams above are stable however many siblings are spawned.

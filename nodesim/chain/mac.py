@@ -108,10 +108,8 @@ class Link:
             out |= (t >= a) & (t < b)
         return out
 
-    def _burst_lost(self, trying: np.ndarray) -> np.ndarray:
+    def _burst_lost(self, trying: np.ndarray, u_state: np.ndarray, u_loss: np.ndarray) -> np.ndarray:
         b = self.burst
-        u_state = self.draws.next_uniform(trying)
-        u_loss = self.draws.next_uniform(trying)
         flip = np.where(self.bad, u_state < b.p_bad_to_good, u_state < b.p_good_to_bad)
         self.bad = np.where(trying, self.bad ^ flip, self.bad)
         return trying & (u_loss < np.where(self.bad, b.loss_bad, b.loss_good))
@@ -132,6 +130,7 @@ class Link:
         else:
             start = t_ready.copy()
         attempts = 1 + m.max_retries if m.enabled else 1
+        per_attempt = (2 if m.enabled else 1) + (2 if self.burst is not None else 0)
         t = start.copy()
         done = np.zeros(R, dtype=bool)
         arrival = np.full(R, np.nan)
@@ -140,12 +139,12 @@ class Link:
             if not trying.any():
                 break
             st.attempts += trying
-            u = self.draws.next_uniform(trying)
-            ok = trying & (u >= ch.per_data(t)) & (t < rx_dead_at_s)
+            u = self.draws.next_uniforms(per_attempt, trying)  # data[, ack][, burst state, burst loss]
+            ok = trying & (u[:, 0] >= ch.per_data(t)) & (t < rx_dead_at_s)
             if self.outages:
                 ok &= ~self._in_outage(t)
             if self.burst is not None:
-                ok &= ~self._burst_lost(trying)
+                ok &= ~self._burst_lost(trying, u[:, -2], u[:, -1])
             if m.enabled and rx is not None:
                 ok &= ~((t < rx.busy_end) & (t + ch.airtime_s > rx.busy_start))  # half duplex
             arrival = np.where(ok & np.isnan(arrival), t + ch.airtime_s, arrival)
@@ -153,8 +152,7 @@ class Link:
                 done |= trying
                 t = np.where(trying, t + ch.airtime_s, t)
                 break
-            u_ack = self.draws.next_uniform(trying)
-            acked = ok & (u_ack >= ch.per_ack(t))
+            acked = ok & (u[:, 1] >= ch.per_ack(t))
             if self.outages:
                 acked &= ~self._in_outage(t)
             wait = np.where(acked, m.turnaround_s + ch.ack_airtime_s, m.ack_timeout_s)
@@ -180,8 +178,8 @@ class Link:
 def _energy(radio: RadioState | None, mask: np.ndarray, tx_s: float, rx_s) -> None:
     if radio is None:
         return
-    radio.tx_s += np.where(mask, tx_s, 0.0)
-    radio.rx_s += np.where(mask, rx_s, 0.0)
+    radio.tx_s += mask * tx_s
+    radio.rx_s += mask * rx_s
 
 
 def radio_energy_j(radio: RadioState, mac: MacSection) -> np.ndarray:

@@ -187,8 +187,8 @@ class ChainNode:
             sender=self.node_id,
             seq=net.next_seq(),
             t_read_s=float(t),
-            yaw_rad=self.kf.yaw_rad.copy(),
-            yaw_var_rad2=self.kf.yaw_variance_rad2.copy(),
+            yaw_rad=self.yaw[:, k].copy(),  # recorded this tick (the filter's state after the update)
+            yaw_var_rad2=self.var[:, k].copy(),
             rate_rad_s=rate_estimate(self.kf, self.sig.gyro_rad_s[:, k]),
             valid=valid,
         )
