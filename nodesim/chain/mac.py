@@ -119,7 +119,7 @@ class Link:
         """Send one frame at ``t_ready`` (scalar or (R,)) in the ``sending`` realizations (module docstring)."""
         m, ch, st = self.mac, self.channel, self.stats
         R = sending.shape[0]
-        t_ready = np.broadcast_to(np.asarray(t_ready, dtype=float), (R,))
+        t_ready = np.full(R, t_ready, dtype=float) if np.ndim(t_ready) == 0 else np.asarray(t_ready, dtype=float)
         sending = sending.copy()
         st.frames += sending
         if m.enabled and tx is not None:
@@ -134,20 +134,29 @@ class Link:
         t = start.copy()
         done = np.zeros(R, dtype=bool)
         arrival = np.full(R, np.nan)
+        n_att = np.zeros(R, dtype=np.int64)
+        heard = np.zeros(R, dtype=np.int64)  # attempts that reached a live receiver's radio
+        wait_sum = np.zeros(R)
+        alive_always = rx_dead_at_s == np.inf
+        half_duplex = m.enabled and rx is not None
         for _ in range(attempts):
             trying = sending & ~done
             if not trying.any():
                 break
-            st.attempts += trying
+            n_att += trying
             u = self.draws.next_uniforms(per_attempt, trying)  # data[, ack][, burst state, burst loss]
-            ok = trying & (u[:, 0] >= ch.per_data(t)) & (t < rx_dead_at_s)
+            ok = trying & (u[:, 0] >= ch.per_data(t))
+            if not alive_always:
+                alive = t < rx_dead_at_s
+                ok &= alive
+                heard += trying & alive
             if self.outages:
                 ok &= ~self._in_outage(t)
             if self.burst is not None:
                 ok &= ~self._burst_lost(trying, u[:, -2], u[:, -1])
-            if m.enabled and rx is not None:
-                ok &= ~((t < rx.busy_end) & (t + ch.airtime_s > rx.busy_start))  # half duplex
-            arrival = np.where(ok & np.isnan(arrival), t + ch.airtime_s, arrival)
+            if half_duplex:
+                ok &= ~((t < rx.busy_end) & (t + ch.airtime_s > rx.busy_start))
+            arrival[ok & np.isnan(arrival)] = (t + ch.airtime_s)[ok & np.isnan(arrival)]
             if not m.enabled:
                 done |= trying
                 t = np.where(trying, t + ch.airtime_s, t)
@@ -156,11 +165,15 @@ class Link:
             if self.outages:
                 acked &= ~self._in_outage(t)
             wait = np.where(acked, m.turnaround_s + ch.ack_airtime_s, m.ack_timeout_s)
-            _energy(tx, trying, ch.airtime_s, wait)
-            _energy(rx, acked, ch.ack_airtime_s, 0.0)
-            _energy(rx, trying & (t < rx_dead_at_s), 0.0, ch.airtime_s)
+            wait_sum += trying * wait
             done |= acked
             t = np.where(trying, np.maximum(t + ch.airtime_s + wait, t + ch.airtime_s / m.duty_cycle), t)
+        st.attempts += n_att
+        if m.enabled:
+            if alive_always:
+                heard = n_att
+            _energy(tx, n_att * ch.airtime_s, wait_sum)
+            _energy(rx, done * ch.ack_airtime_s, heard * ch.airtime_s)
         delivered = ~np.isnan(arrival)
         st.delivered += delivered
         st.latency_sum_s += np.where(delivered, arrival - t_ready, 0.0)
@@ -175,11 +188,10 @@ class Link:
         return Transfer(delivered, arrival, end)
 
 
-def _energy(radio: RadioState | None, mask: np.ndarray, tx_s: float, rx_s) -> None:
-    if radio is None:
-        return
-    radio.tx_s += mask * tx_s
-    radio.rx_s += mask * rx_s
+def _energy(radio: RadioState | None, tx_s: np.ndarray, rx_s: np.ndarray) -> None:
+    if radio is not None:
+        radio.tx_s += tx_s
+        radio.rx_s += rx_s
 
 
 def radio_energy_j(radio: RadioState, mac: MacSection) -> np.ndarray:
