@@ -119,3 +119,27 @@ def test_seed_mapping_rejects_bad_first_realization():
 
     with pytest.raises(ScenarioError, match="first_realization"):
         Scenario().with_overrides(**{"simulation.first_realization": -1})
+
+
+def test_radio_and_mac_keys_are_validated_with_their_path():
+    from nodesim.errors import ScenarioError
+
+    for key, value, where in (("radio.soil.vwc", 1.5, "radio.soil.vwc"), ("mac.duty_cycle", 0.0, "mac.duty_cycle"),
+                              ("radio.kind", "air", "radio.kind"), ("mac.drop_policy", "random", "mac.drop_policy")):
+        with pytest.raises(ScenarioError, match=where):
+            Scenario().with_overrides(**{key: value})
+    with pytest.raises(ScenarioError, match="vwc_profile"):
+        Scenario().with_overrides(**{"radio.soil.vwc_profile": [[10.0, 0.2], [5.0, 0.3]]})
+
+
+def test_perf_scenario_is_the_benchmark_chain():
+    from importlib import resources
+
+    from nodesim.scenario import load_scenario
+
+    with resources.as_file(resources.files("scenarios") / "perf" / "chain100_1h.toml") as p:
+        s, _ = load_scenario(p)
+    assert (s.chain.nodes, s.simulation.duration_s, s.filter.implementation) == (100, 3600.0, "fixed")
+    assert s.radio.model == "channel" and s.radio.kind == "soil" and s.mac.enabled
+    hops, _ = hop_channels(s, RunStreams(s.seed, s.chain.nodes), 1)
+    assert 0.05 < hops[1].per_data_table[0, 0] < 0.3  # lossy soil hops
