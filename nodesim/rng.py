@@ -30,6 +30,7 @@ the streams above are stable however many siblings are spawned.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -42,6 +43,13 @@ def _child(parent: np.random.SeedSequence, index: int) -> np.random.SeedSequence
     return np.random.SeedSequence(parent.entropy, spawn_key=parent.spawn_key + (index,))
 
 
+@lru_cache(maxsize=4096)
+def _realization_seq(seed: int, index: int) -> np.random.SeedSequence:
+    """Realization ``index`` of root ``seed`` (cached: every stream of a realization starts here; a
+    SeedSequence is not changed by building children with :func:`_child`)."""
+    return _child(np.random.SeedSequence(seed), index)
+
+
 @dataclass(frozen=True)
 class RunStreams:
     """Factory of the named random streams of one run (root seed -> realizations -> nodes/links)."""
@@ -51,7 +59,7 @@ class RunStreams:
     first_realization: int = 0
 
     def _realization(self, r: int) -> np.random.SeedSequence:
-        return _child(np.random.SeedSequence(self.seed), self.first_realization + r)
+        return _realization_seq(self.seed, self.first_realization + r)
 
     def sensor(self, realization: int, node: int, stream: str) -> np.random.Generator:
         """Generator for sensor ``stream`` (one of :data:`SENSOR_STREAMS`) of ``node`` in ``realization``."""

@@ -137,8 +137,7 @@ class Network:
         self.down_links = [link(self.hops[h], [streams.link(r, h) for r in range(R)], h) for h in range(c.nodes)]
         self.up_links = [link(self.hops[h], [streams.link(r, c.nodes + h) for r in range(R)], h)
                          for h in range(c.nodes)]
-        self.skip_down = [None if skips[n] is None else
-                          link(skips[n], [streams.skip_link(r, n) for r in range(R)], -1) for n in range(c.nodes)]
+        self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
         self.surface = RadioState(R, mac.queue_length)
         self.seq = 0
         schedule = schedule_of(scenario)
@@ -155,6 +154,14 @@ class Network:
             self.nodes.append(node)
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
+
+    def skip_link(self, node_id: int) -> Link:
+        """The fallback link from ``node_id`` to the node after its neighbour (built on first use; its draws
+        come from its own streams, so when it is built does not matter)."""
+        if node_id not in self._skip_links:
+            gens = [self._streams.skip_link(r, node_id) for r in range(self.R)]
+            self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1)
+        return self._skip_links[node_id]
 
     def next_seq(self) -> int:
         """Sequence numbers are network-wide and increase with send time (a fallback receiver compares
@@ -185,7 +192,7 @@ class Network:
         self.env.run()
         points = self.scenario.filter.moving_average_points
         runs = tuple(_node_run(n, points) for n in self.nodes)
-        skips = tuple(s for s in self.skip_down if s is not None and s.stats.frames.any())
+        skips = tuple(s for _, s in sorted(self._skip_links.items()) if s.stats.frames.any())
         lost = sum(link.stats.lost for link in self.down_links + self.up_links + list(skips))
         return ChainRun(
             nodes=runs,

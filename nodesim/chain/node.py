@@ -200,7 +200,7 @@ class ChainNode:
             below.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
         if skip.any():  # the neighbour did not answer: on to the node after it, once the exchange is over
             skip_to = net.nodes[self.index + 2]
-            tr = net.skip_down[self.node_id].transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio,
+            tr = net.skip_link(self.node_id).transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio,
                                                       skip_to.radio, skip_to.dead_at_s)
             if tr.delivered.any():
                 skip_to.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
