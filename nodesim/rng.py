@@ -13,8 +13,8 @@ realization or a node never changes the streams of the others:
                                                           carries surveys from node l + 1)
       radio hop h         = realization.spawn(3N + H)[3N + h]  (per physical hop h = 0..N-1, after the
                                                           links: its shadowing draws)
-      skip link of node h = realization.spawn(4N + ...)[4N + h] down, [5N + h] up (the ad-hoc fallback
-                                                          from node h to the node after its neighbour)
+      skip link of node h = realization.spawn(4N + ...)[4N + h]   (the ad-hoc fallback from node h, 1-based,
+                                                          to the node after its neighbour)
 
 Realization index r of a run is ``simulation.first_realization + i`` for its i-th realization (i = 0..R-1):
 a run with R realizations is exactly the R runs of one realization each with first_realization = r, and
@@ -75,9 +75,9 @@ class RunStreams:
         """Generator for the radio hop ``hop`` (0 = surface to the top node) in ``realization``."""
         return np.random.default_rng(_child(self._realization(realization), 3 * self.n_nodes + hop))
 
-    def skip_link(self, realization: int, node: int, up: bool = False) -> np.random.Generator:
-        """Generator for the fallback skip link of node ``node`` (1-based sender, down or up) in ``realization``."""
-        return np.random.default_rng(_child(self._realization(realization), (5 if up else 4) * self.n_nodes + node))
+    def skip_link(self, realization: int, node: int) -> np.random.Generator:
+        """Generator for the fallback skip link of node ``node`` (1-based sender) in ``realization``."""
+        return np.random.default_rng(_child(self._realization(realization), 4 * self.n_nodes + node))
 
     def sensor_batch(self, realizations: int, node: int, stream: str) -> list[np.random.Generator]:
         """One generator per realization for a (node, stream): used to draw batched noise arrays."""
