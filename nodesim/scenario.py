@@ -13,15 +13,11 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, model_validator
 
 from nodesim.errors import ScenarioError
-
-
-class _Section(BaseModel):
-    """Base of every scenario section: frozen, strict about unknown keys, no silent coercion (strict types)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, validate_default=True)
+from nodesim.scenario_base import _Section
+from nodesim.scenario_radio import FaultsSection, MacSection, RadioSection, check_indices
 
 
 class SimulationSection(_Section):
@@ -29,6 +25,10 @@ class SimulationSection(_Section):
 
     duration_s: float = Field(620.0, gt=0.0, le=30 * 24 * 3600.0, description="simulated time")
     realizations: int = Field(1, ge=1, le=1_000_000, description="independent Monte Carlo realizations")
+    first_realization: int = Field(
+        0, ge=0, le=1_000_000_000,
+        description="index of the first realization: the run covers realizations first .. first + R - 1 of the "
+        "root seed, so realization r alone is first_realization = r, realizations = 1")
 
 
 class NodeClockSection(_Section):
@@ -225,6 +225,9 @@ class Scenario(_Section):
     filter: FilterSection = FilterSection()
     schedule: ScheduleSection = ScheduleSection()
     metrics: MetricsSection = MetricsSection()
+    radio: RadioSection = RadioSection()
+    mac: MacSection = MacSection()
+    faults: FaultsSection = FaultsSection()
 
     @model_validator(mode="after")
     def _metrics_inside_run(self) -> "Scenario":
@@ -242,6 +245,7 @@ class Scenario(_Section):
             if node.id in seen:
                 raise ValueError(f"chain.node[{i}].id = {node.id}: node id given twice")
             seen.add(node.id)
+        check_indices(self.chain.nodes, self.radio, self.faults)
         dt = 1.0 / self.chain.firmware_rate_hz
         if 2.0 * self.chain.link_delay_s + self.chain.processing_s >= dt:
             raise ValueError(

@@ -1,24 +1,17 @@
-"""Simple links: a fixed transfer delay and an independent per-transmission loss probability.
+"""Per-realization uniform draws of a link (the hops, MAC and faults are in radio.py, mac.py, faults.py).
 
-The physical radio links (path loss, MAC, ARQ, faults) replace this module in the link issue; the
-interface stays: ``SimpleLink.send(env, packet, deliver)`` delivers ``packet`` after ``delay_s`` with
-``valid`` cleared in the realizations that lost it.
-
-Losses are drawn per realization from that link's own stream (:meth:`nodesim.rng.RunStreams.link`), one
-uniform number per transmission in transmission order, so every realization owns its losses while all
-realizations share one SimPy event per transmission.  Draws are buffered in blocks for speed; a block is
-the next ``block`` numbers of each realization's stream, so the result does not depend on the block size.
+Draws come per realization from that link's own stream (:meth:`nodesim.rng.RunStreams.link`), in
+transmission order, and a realization advances its stream only when it transmits, so every realization owns
+its packet outcomes while all realizations share the event skeleton.  Draws are buffered in blocks for
+speed; a block is the next ``block`` numbers of each realization's stream, so the result does not depend on
+the block size.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
-import simpy
-
-from nodesim.rng import RunStreams
 
 
 @dataclass
@@ -32,51 +25,29 @@ class LossDraws:
     block: int = 256
     _buffer: np.ndarray = field(default=None, init=False, repr=False)
     _next: np.ndarray = field(default=None, init=False, repr=False)
+    _rows: np.ndarray = field(default=None, init=False, repr=False)
 
     def next_uniform(self, mask: np.ndarray | None = None) -> np.ndarray:
         """The next uniform number of every realization in ``mask`` (default: all), shape (R,); NaN elsewhere."""
+        return self.next_uniforms(1, mask)[:, 0]
+
+    def next_uniforms(self, n: int, mask: np.ndarray | None = None) -> np.ndarray:
+        """The next ``n`` uniform numbers of every realization in ``mask``, shape (R, n); NaN elsewhere (the
+        same numbers as ``n`` calls of :meth:`next_uniform` with that mask)."""
         R = len(self.generators)
         if self._buffer is None:
             self._buffer = np.stack([g.random(self.block) for g in self.generators])
             self._next = np.zeros(R, dtype=np.int64)
+            self._rows = np.arange(R)[:, None]
         take = np.ones(R, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
-        for r in np.flatnonzero(take & (self._next >= self.block)):  # refill exhausted rows only
-            self._buffer[r] = self.generators[r].random(self.block)
-            self._next[r] = 0
-        out = np.where(take, self._buffer[np.arange(R), np.minimum(self._next, self.block - 1)], np.nan)
-        self._next += take
+        short = take & (self._next > self.block - n)
+        if short.any():  # keep the unread numbers in order, refill the rest of the row from the stream
+            for r in np.flatnonzero(short):
+                rest = self._buffer[r, self._next[r]:]
+                self._buffer[r] = np.concatenate([rest, self.generators[r].random(self.block - rest.size)])
+                self._next[r] = 0
+        idx = np.minimum(self._next[:, None] + np.arange(n), self.block - 1)
+        out = self._buffer[self._rows, idx]
+        out[~take] = np.nan
+        self._next += take * n
         return out
-
-
-@dataclass
-class SimpleLink:
-    """One hop: fixed delay, loss probability per transmission; counts what it carried and lost."""
-
-    name: str
-    delay_s: float
-    loss_probability: float
-    draws: LossDraws
-    transmissions: int = 0
-    lost: np.ndarray | None = None  # per realization, number of transmissions lost
-
-    @classmethod
-    def from_streams(cls, name: str, streams: RunStreams, link_index: int, realizations: int, delay_s: float,
-                     loss_probability: float) -> "SimpleLink":
-        gens = [streams.link(r, link_index) for r in range(realizations)]
-        return cls(name, delay_s, loss_probability, LossDraws(gens), lost=np.zeros(realizations, dtype=np.int64))
-
-    def draw_lost(self, sending: np.ndarray | None = None) -> np.ndarray:
-        """Whether this transmission is lost, per realization (bool (R,)); only the realizations that are
-        ``sending`` (default: all) draw, and only they can lose it."""
-        self.transmissions += 1
-        u = self.draws.next_uniform(sending)
-        lost = np.isfinite(u) & (u < self.loss_probability)
-        self.lost += lost
-        return lost
-
-    def send(self, env: simpy.Environment, packet, deliver: Callable[[object], None], extra_delay_s: float = 0.0):
-        """SimPy process: after ``extra_delay_s`` (the sender's processing) and ``delay_s`` call
-        ``deliver(packet)`` with the lost realizations invalidated."""
-        lost = self.draw_lost(packet.valid)
-        yield env.timeout(extra_delay_s + self.delay_s)
-        deliver(packet.lost_where(lost))

@@ -14,7 +14,9 @@ part of each drilling survey stop; only where the node's filter runs):
   ``bias_hold_s`` (thesis digest 5.4 criterion); NaN if never;
 - ``bias_converged_fraction``: share of realizations whose bias converged;
 - ``update_fraction``: share of metric ticks that applied a reference update;
-- ``mean_update_age_s``: mean age of the reference at use (encoder read or forwarded estimate).
+- ``mean_update_age_s``: mean age of the reference at use (encoder read or forwarded estimate);
+- ``max_time_since_update_s``: the longest time over the metric ticks since the node last applied a
+  reference update (from the node's filter start; how stale its estimate got).
 Each is computed per realization; the summary gives the mean over realizations and, for R > 1, the 95th
 percentile under ``*_p95``.  The headline keys are those of the bottom node (the last in the chain, the
 one whose survey the ground station uses); every node also appears as ``node<id>_<key>``.
@@ -28,6 +30,7 @@ import warnings
 import numpy as np
 
 from firmware_model.survey import circular_moving_average, trailing_moving_average
+from nodesim.chain.linkmetrics import link_metrics
 from nodesim.chain.network import ChainRun, NodeRun
 from nodesim.scenario import MetricsSection
 from nodesim.units import rad_to_deg, wrap_pi
@@ -41,6 +44,7 @@ PER_NODE_KEYS = (
     "bias_converged_fraction",
     "update_fraction",
     "mean_update_age_s",
+    "max_time_since_update_s",
 )
 
 
@@ -106,6 +110,7 @@ def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[s
         node, run.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
     )
     nan = np.full(R, np.nan)
+    since = _time_since_update(node)[:, sel] if sel.any() else np.full((R, 1), np.nan)
     return {
         "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if sel.any() else nan,
         "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if sel.any() else nan,
@@ -115,7 +120,17 @@ def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[s
         "bias_converged_fraction": np.isfinite(convergence).astype(float),
         "update_fraction": node.update_mask[:, sel].mean(axis=1) if sel.any() else nan,
         "mean_update_age_s": age,
+        "max_time_since_update_s": since.max(axis=1),
     }
+
+
+def _time_since_update(node: NodeRun) -> np.ndarray:
+    """(R, K) time since the last applied update (or since the filter start), NaN before the start."""
+    t = node.t_s
+    last = np.where(node.update_mask, t[None, :], -np.inf)
+    last = np.maximum.accumulate(last, axis=1)
+    start = node.filter_start_s
+    return np.where(t[None, :] >= start, t[None, :] - np.maximum(last, start), np.nan)
 
 
 def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, np.ndarray]:
@@ -128,6 +143,7 @@ def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, 
     out["stale_packets"] = sum(n.stale_packets for n in run.nodes).astype(float)
     out["duplicate_packets"] = sum(n.duplicate_packets for n in run.nodes).astype(float)
     out["lost_packets"] = run.lost_packets.astype(float)
+    out.update(link_metrics(run))
     if run.motion.stops:
         received = np.zeros(run.nodes[0].yaw_est_rad.shape[0])
         for g in run.surveys:
@@ -140,7 +156,8 @@ def summarize(per_realization: dict[str, np.ndarray]) -> dict[str, float | None]
     """Flat summary: mean over realizations (NaN -> None in JSON), plus p95 when R > 1 (not for counts
     and fractions)."""
     out: dict[str, float | None] = {}
-    no_p95 = ("_fraction", "_packets", "surveys_received")
+    no_p95 = ("_fraction", "_packets", "surveys_received", "_ratio", "_retransmissions", "_latency_s",
+              "_radio_energy_j", "queue_drops", "fallback_frames")
     for key, values in per_realization.items():
         finite = values[np.isfinite(values)]
         out[key] = float(np.mean(finite)) if finite.size else None

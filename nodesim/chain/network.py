@@ -1,10 +1,13 @@
-"""The chain network: encoder, N nodes, simple links and the ground-station sink in one SimPy environment.
+"""The chain network: encoder, N nodes, radio links and the ground-station sink in one SimPy environment.
 
-``simulate_chain(scenario)`` builds the motion, each node's clock and sensor signals, the links
-(down-link l feeds node l + 1: from the encoder when that node is the top node, else from the node above;
-up-link N + l carries surveys from node l + 1 upwards) and runs every node as a process until the end of
-the scenario.  Realizations share the event skeleton (tick times, schedule, delays) and own every random
-draw (sensor noise, packet losses); the SimPy event count does not depend on R.
+``simulate_chain(scenario)`` builds the motion, each node's clock and sensor signals, the hop channels
+(:mod:`nodesim.chain.radio`), the links with their MAC (:mod:`nodesim.chain.mac`; down-link l feeds node l + 1:
+from the encoder when that node is the top node, else from the node above; up-link N + l carries surveys from
+node l + 1 upwards), the faults (:mod:`nodesim.chain.faults`) and runs every node as a process until the end of
+the scenario.  One SimPy event per node tick: a frame is resolved by the MAC when it is sent and carries its
+arrival time per realization; the receiver takes it at its first tick at or after that time.
+Realizations share the event skeleton (tick times, schedule, fault times) and own every random draw (sensor
+noise, shadowing, packet outcomes); the SimPy event count does not depend on R.
 
 Clocks: node n (1-based) ticks at offset_n + k dt / (1 + drift_n 1e-6), offset_n = (n - 1) x
 ``chain.clock_stagger_s`` by default, so a reference wave crosses several hops in one cycle.
@@ -19,10 +22,13 @@ import numpy as np
 import simpy
 
 from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
-from nodesim.chain.links import SimpleLink
+from nodesim.chain import faults
+from nodesim.chain.links import LossDraws
+from nodesim.chain.mac import Link, RadioState, radio_energy_j
 from nodesim.chain.motion import ChainMotion, build_motion
 from nodesim.chain.node import ChainNode
 from nodesim.chain.packets import SurveyPacket
+from nodesim.chain.radio import HopChannel, hop_channels
 from nodesim.chain.sensing import EncoderReader, node_signals
 from nodesim.rng import RunStreams
 from nodesim.scenario import Scenario
@@ -90,7 +96,7 @@ class GroundSurvey:
     """A survey as the ground station received it."""
 
     packet: SurveyPacket
-    arrival_s: float
+    arrival_s: np.ndarray  # (R,) NaN where it did not arrive
 
 
 @dataclass(frozen=True)
@@ -102,6 +108,11 @@ class ChainRun:
     lost_packets: np.ndarray  # (R,) over all links
     simpy_events: int
     moving_average_points: int
+    hops: tuple[HopChannel, ...] = ()
+    down_links: tuple[Link, ...] = ()  # index h: hop h (0 = surface to the top node)
+    up_links: tuple[Link, ...] = ()
+    skip_links: tuple[Link, ...] = ()  # fallback links that carried frames
+    radio_energy_j: np.ndarray | None = None  # (N, R) per node
 
 
 class Network:
@@ -121,38 +132,65 @@ class Network:
         self.forward_every_tick = c.forward == "every_tick"
         self.motion = build_motion(scenario)
         self.encoder = EncoderReader.from_scenario(scenario, self.motion)
-        R = scenario.simulation.realizations
-        streams = RunStreams(seed=scenario.seed, n_nodes=c.nodes)
-        mk = SimpleLink.from_streams
-        self.down_links = [mk(f"down{i + 1}", streams, i, R, c.link_delay_s, c.link_loss_probability)
-                           for i in range(c.nodes)]
-        self.up_links = [mk(f"up{i + 1}", streams, c.nodes + i, R, c.link_delay_s, c.link_loss_probability)
-                         for i in range(c.nodes)]
+        R = self.R = scenario.simulation.realizations
+        streams = RunStreams(seed=scenario.seed, n_nodes=c.nodes, first_realization=scenario.simulation.first_realization)
+        self.hops, skips = hop_channels(scenario, streams, R)
+        mac = scenario.mac
+
+        def link(channel, gens, h):
+            return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h))
+
+        self.down_links = [link(self.hops[h], [streams.link(r, h) for r in range(R)], h) for h in range(c.nodes)]
+        self.up_links = [link(self.hops[h], [streams.link(r, c.nodes + h) for r in range(R)], h)
+                         for h in range(c.nodes)]
+        self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
+        self.surface = RadioState(R, mac.queue_length)
+        self.seq = 0
         schedule = schedule_of(scenario)
         self.nodes: list[ChainNode] = []
         for i in range(c.nodes):
             offset, drift = node_clock(scenario, i + 1)
             t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
+            t = faults.stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
             sig = node_signals(scenario, self.motion, streams, i, t, self.dt_s)
-            self.nodes.append(ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s)))
+            node = ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s))
+            node.dead_at_s = faults.death_time_s(scenario, i + 1)
+            node.radio = RadioState(R, mac.queue_length)
+            node.fallback = faults.Fallback.new(scenario, skips[i + 1] if i + 1 < c.nodes else None, R)
+            self.nodes.append(node)
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
 
-    def send_survey(self, packet: SurveyPacket) -> None:
-        self.sent.append(packet)
-        self.env.process(self._relay_up(packet))
+    def skip_link(self, node_id: int) -> Link:
+        """The fallback link from ``node_id`` to the node after its neighbour (built on first use; its draws
+        come from its own streams, so when it is built does not matter)."""
+        if node_id not in self._skip_links:
+            gens = [self._streams.skip_link(r, node_id) for r in range(self.R)]
+            self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1)
+        return self._skip_links[node_id]
 
-    def _relay_up(self, packet: SurveyPacket):
-        """Hop by hop from the surveying node to the top node and on to the ground station."""
+    def next_seq(self) -> int:
+        """Sequence numbers are network-wide and increase with send time (a fallback receiver compares
+        packets of two senders)."""
+        self.seq += 1
+        return self.seq
+
+    def send_survey(self, packet: SurveyPacket, ready_s) -> None:
+        """Hop by hop from the surveying node to the top node and on to the ground station, resolved by the
+        MAC at once (arrival per realization; a dead node on the way loses it)."""
+        self.sent.append(packet)
         t = self.env.now
         top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
+        at = np.broadcast_to(np.asarray(ready_s, dtype=float), (self.R,)).copy()  # after the node's own exchange
+        valid = packet.valid.copy()
         for node_id in range(packet.node_id, top - 1, -1):
-            link = self.up_links[node_id - 1]
-            lost = link.draw_lost(packet.valid)
-            yield self.env.timeout(link.delay_s)
-            self.events += 1
-            packet = packet.lost_where(lost)
-        self.ground.append(GroundSurvey(packet, self.env.now))
+            above = self.nodes[node_id - 2] if node_id > top else None
+            tr = self.up_links[node_id - 1].transfer(
+                at, valid, self.nodes[node_id - 1].radio, above.radio if above else self.surface,
+                above.dead_at_s if above else np.inf)
+            valid = tr.delivered
+            at = np.where(valid, tr.arrival_s, np.nan)
+        self.ground.append(GroundSurvey(packet.lost_where(~valid), at))
 
     def run(self) -> ChainRun:
         for node in self.nodes:
@@ -160,7 +198,8 @@ class Network:
         self.env.run()
         points = self.scenario.filter.moving_average_points
         runs = tuple(_node_run(n, points) for n in self.nodes)
-        lost = sum(link.lost for link in self.down_links + self.up_links)
+        skips = tuple(s for _, s in sorted(self._skip_links.items()) if s.stats.frames.any())
+        lost = sum(link.stats.lost for link in self.down_links + self.up_links + list(skips))
         return ChainRun(
             nodes=runs,
             motion=self.motion,
@@ -169,6 +208,11 @@ class Network:
             lost_packets=lost,
             simpy_events=self.events,
             moving_average_points=points,
+            hops=tuple(self.hops),
+            down_links=tuple(self.down_links),
+            up_links=tuple(self.up_links),
+            skip_links=skips,
+            radio_energy_j=np.stack([radio_energy_j(n.radio, self.scenario.mac) for n in self.nodes]),
         )
 
 

@@ -22,11 +22,16 @@ Every tick at the node's own clock (true time T[k] = offset + k dt / (1 + drift 
      ``chain.forward = "every_tick"`` forwards every running tick instead (the post-time-update estimate
      when there was no reference; thesis digest 5.3 (iv) reads the two-node experiment that way);
   7. the bottom node sends its survey up at a survey stop.
+Frames go through the hop's MAC at once (:mod:`nodesim.chain.mac`): a packet carries its arrival time per
+realization and waits in the receiver's inbox until its first tick at or after it.  A failed node
+(:mod:`nodesim.chain.faults`) stops ticking; a node whose neighbour below stops answering may fall back to the
+next-but-one node.
 Arrays are (R,): the event skeleton is shared by all realizations.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -54,7 +59,10 @@ class ChainNode:
         R, K = signals.gyro_rad_s.shape
         self.inbox: list[EstimatePacket] = []
         self.last_seq = np.full(R, -1, dtype=np.int64)
-        self.seq = 0
+        self.dead_at_s = np.inf
+        self.radio = None  # mac.RadioState, set by the network
+        self.fallback = None  # faults.Fallback, set by the network
+        self.ready_s = 0.0  # when this tick's estimate is ready to send (scalar or (R,))
         self.kf = None
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
@@ -77,9 +85,12 @@ class ChainNode:
     def process(self):
         env, sig, tl = self.net.env, self.sig, self.timeline
         for k, t in enumerate(sig.t_s):
+            if t >= self.dead_at_s:
+                return
             yield env.timeout(t - env.now)
             self.net.events += 1
             self.opportunity = False
+            self.ready_s = t
             if t < tl.present_from_s:
                 continue
             if t < tl.filter_start_s:  # static window: initial bias
@@ -96,7 +107,7 @@ class ChainNode:
                 self.kf.predict(sig.gyro_rad_s[:, k])
                 if tl.is_top(t):
                     if self.scheduled[k]:
-                        yield from self._encoder_update(k, t)
+                        self._encoder_update(k, t)
                 else:
                     self._forwarded_update(k, t)
                 self.running[k] = True
@@ -109,29 +120,46 @@ class ChainNode:
             for stop in self.stops:
                 if stop.t_survey_s <= t < stop.end_s and not any(p.station == stop.station for p in self.net.sent):
                     self.net.send_survey(SurveyPacket(stop.station, stop.md_m, self.node_id, k, t,
-                                                      np.ones(self.yaw.shape[0], dtype=bool)))
+                                                      np.ones(self.yaw.shape[0], dtype=bool)), self.ready_s)
 
-    def _encoder_update(self, k: int, t: float):
+    def _encoder_update(self, k: int, t: float) -> None:
+        """Request and reply over hop 1 (both on its down link's draws); the encoder answers the requests it
+        received, read at their arrival t_read and brought back to the tick with its rate; the age of the
+        reference is the reply's arrival minus t_read."""
         self.opportunity = True
-        env, link = self.net.env, self.net.down_links[self.index]
-        lost_request = link.draw_lost()
-        yield env.timeout(link.delay_s)
-        t_read = env.now
-        yaw_enc, rate_enc = self.net.encoder.read(t_read)
-        lost_reply = link.draw_lost(~lost_request)  # the encoder answers the requests it received
-        yield env.timeout(link.delay_s)
-        self.net.events += 2
-        have = ~(lost_request | lost_reply)
-        ref = np.full(have.shape, yaw_enc - rate_enc * (t_read - t))
+        link, surface = self.net.down_links[self.index], self.net.surface
+        R = self.yaw.shape[0]
+        request = link.transfer(t, np.ones(R, dtype=bool), self.radio, surface)
+        t_read = np.where(request.delivered, request.arrival_s, t)
+        # the reply goes out when the request's exchange (its ACK) is over: the node is half duplex
+        reply = link.transfer(np.where(request.delivered, request.end_s, t), request.delivered, surface, self.radio)
+        have = reply.delivered
+        yaw_enc, rate_enc = self.net.encoder.read_many(t_read)
+        ref = yaw_enc - rate_enc * (t_read - t)
         self.kf.update(ref, self.net.encoder.variance_rad2, mask=have)
         self.ref_yaw[:, k], self.ref_var[:, k] = ref, self.net.encoder.variance_rad2
         self.applied[:, k] = have
-        self.age[:, k] = np.where(have, env.now - t_read, np.nan)
+        self.age[:, k] = np.where(have, reply.arrival_s - t_read, np.nan)
+        self.ready_s = np.where(have, reply.arrival_s, t)
+
+    def _arrived(self, t: float) -> list[EstimatePacket]:
+        """The inbox's packets as far as they have arrived by ``t``; the rest stays for a later tick."""
+        now, later = [], []
+        for p in self.inbox:
+            arrived = p.arrival_s <= t
+            if arrived[p.valid].all():
+                now.append(p)
+                continue
+            if (p.valid & arrived).any():
+                now.append(replace(p, valid=p.valid & arrived))
+            later.append(replace(p, valid=p.valid & ~arrived))
+        self.inbox = later
+        return now
 
     def _forwarded_update(self, k: int, t: float) -> None:
-        self.opportunity = bool(self.inbox)
-        sel = select_reference(self.inbox, self.last_seq, t, self.net.max_age_s)
-        self.inbox.clear()
+        arrived = self._arrived(t)
+        self.opportunity = bool(arrived)
+        sel = select_reference(arrived, self.last_seq, t, self.net.max_age_s)
         self.stale += sel.stale
         self.duplicate += sel.duplicate
         if not sel.have.any():
@@ -157,16 +185,26 @@ class ChainNode:
         self.bias[:, k] = self.kf.bias_rad_s
 
     def _transmit(self, k: int, t: float, valid: np.ndarray) -> None:
+        """Send the estimate to the node below (or, where this node fell back, to the one after it)."""
+        net = self.net
         pkt = EstimatePacket(
             sender=self.node_id,
-            seq=self.seq,
+            seq=net.next_seq(),
             t_read_s=float(t),
-            yaw_rad=self.kf.yaw_rad.copy(),
-            yaw_var_rad2=self.kf.yaw_variance_rad2.copy(),
+            yaw_rad=self.yaw[:, k].copy(),  # recorded this tick (the filter's state after the update)
+            yaw_var_rad2=self.var[:, k].copy(),
             rate_rad_s=rate_estimate(self.kf, self.sig.gyro_rad_s[:, k]),
-            valid=valid.copy(),
+            valid=valid,
         )
-        self.seq += 1
-        below = self.net.nodes[self.index + 1]
-        link = self.net.down_links[self.index + 1]
-        self.net.env.process(link.send(self.net.env, pkt, below.deliver, extra_delay_s=self.net.processing_s))
+        t_ready = self.ready_s + net.processing_s
+        below = net.nodes[self.index + 1]
+        tr = net.down_links[self.index + 1].transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
+        skip = self.fallback.record(valid, tr.delivered, t)
+        if tr.delivered.any():
+            below.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
+        if skip.any():  # the neighbour did not answer: on to the node after it, once the exchange is over
+            skip_to = net.nodes[self.index + 2]
+            tr = net.skip_link(self.node_id).transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio,
+                                                      skip_to.radio, skip_to.dead_at_s)
+            if tr.delivered.any():
+                skip_to.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))

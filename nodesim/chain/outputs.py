@@ -7,6 +7,8 @@
   sigma_f the per-tick accelerometer noise and M the moving-average length);
 - ``ground_survey.csv``: the surveys of realization 0 that reached the ground station, in the CSV form of
   ``nodesim uncertainty`` (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
+- ``hops.csv``: one row per hop: medium, mean path loss and margin, frames, delivery ratio, retransmissions,
+  latency, queue drops (means over realizations; :func:`nodesim.chain.linkmetrics.hop_table`);
 - ``yaw_error.png``: yaw error and bias estimate of every node against time (like thesis figs 4.14, 4.18).
 """
 
@@ -20,6 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from nodesim.chain.linkmetrics import hop_table  # noqa: E402
 from nodesim.chain.network import ChainRun  # noqa: E402
 from nodesim.results import atomic_write_with, write_csv  # noqa: E402
 from nodesim.units import G0_M_S2, rad_to_deg, wrap_pi  # noqa: E402
@@ -67,7 +70,7 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
             sigma_a = np.sqrt(n.yaw_var_rad2[r, p.tick] + var_f / max(horizontal, 1e-12) ** 2)
             for key, value in (
                 ("realization", r), ("station", p.station), ("md_m", p.md_m), ("node", p.node_id),
-                ("t_survey_s", p.t_s), ("arrival_s", g.arrival_s), ("received", int(p.valid[r])),
+                ("t_survey_s", p.t_s), ("arrival_s", g.arrival_s[r]), ("received", int(p.valid[r])),
                 ("inclination_deg", rad_to_deg(n.inclination_rad[r, p.tick])),
                 ("azimuth_deg", rad_to_deg(n.azimuth_rad[r, p.tick])),
                 ("sigma_inclination_deg", rad_to_deg(sigma_i)), ("sigma_azimuth_deg", rad_to_deg(sigma_a)),
@@ -129,6 +132,7 @@ def write_outputs(run: ChainRun, out: Path, title: str, per_realization: dict[st
     R = next(iter(per_realization.values())).size
     write_csv(out / "realizations.csv", {"realization": np.arange(R), **per_realization})
     write_csv(out / "timeseries.csv", timeseries_columns(run))
+    write_csv(out / "hops.csv", hop_table(run))
     if run.motion.stops:
         table = survey_columns(run)
         write_csv(out / "surveys.csv", table)

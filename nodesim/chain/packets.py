@@ -26,6 +26,7 @@ class EstimatePacket:
     yaw_var_rad2: np.ndarray  # P_psipsi
     rate_rad_s: np.ndarray  # the sender's bias-corrected rate estimate
     valid: np.ndarray  # bool (R,)
+    arrival_s: np.ndarray | None = None  # (R,) when it reached the receiver (None: before any use)
 
     def lost_where(self, lost: np.ndarray) -> "EstimatePacket":
         return replace(self, valid=self.valid & ~lost)

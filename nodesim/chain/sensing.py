@@ -105,3 +105,8 @@ class EncoderReader:
         """(quantised yaw, differenced rate) read at true time ``t_s``."""
         r = self.encoder.read(self.motion.rotation.yaw_rad, np.asarray(t_s, dtype=float))
         return float(r.yaw_rad), float(r.rate_rad_s)
+
+    def read_many(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(quantised yaw, differenced rate) read at true times ``t_s`` (one per realization)."""
+        r = self.encoder.read(self.motion.rotation.yaw_rad, np.asarray(t_s, dtype=float))
+        return np.asarray(r.yaw_rad, dtype=float), np.asarray(r.rate_rad_s, dtype=float)

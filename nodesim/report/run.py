@@ -149,6 +149,8 @@ def _link_section(page: Page, run_dir: Path) -> None:
     for csv in sorted(run_dir.glob("*.csv")):
         df = _read_csv(csv)
         cols = [c for c in df.columns if c.endswith("margin_db")] if df is not None else []
+        # simple links (fixed delay and loss) have no link budget: their margin is written as inf
+        cols = [c for c in cols if np.isfinite(pd.to_numeric(df[c], errors="coerce")).any()]
         if not cols:
             continue
         where = next((c for c in ("hop", "link", "node", "md_m") if c in df.columns), None)
@@ -163,7 +165,8 @@ def _link_section(page: Page, run_dir: Path) -> None:
         ax.legend(fontsize=8)
         page.figure(fig, f"from {csv.name}")
         return
-    page.para("no link data in this run (no CSV with a *margin_db column)", note=True)
+    page.para("no link data in this run (no CSV with a finite *margin_db column: simple links have no link budget)",
+              note=True)
 
 
 def run_page(run_dir: Path, tool: str = "mpu6500", **_ignored) -> tuple[Page, dict]:

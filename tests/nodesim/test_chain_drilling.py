@@ -66,8 +66,8 @@ def test_one_survey_per_station_reaches_the_ground_station():
     # finishes its encoder request/reply before it sends)
     d = 0.015
     g1, g3 = run.surveys[0], run.surveys[2]
-    assert abs((g1.arrival_s - g1.packet.t_s) - (2 * d + 1 * d)) < 1e-9
-    assert abs((g3.arrival_s - g3.packet.t_s) - 3 * d) < 1e-9
+    assert np.all(abs((g1.arrival_s - g1.packet.t_s) - (2 * d + 1 * d)) < 1e-9)  # arrival per realization
+    assert np.all(abs((g3.arrival_s - g3.packet.t_s) - 3 * d) < 1e-9)
 
 
 def test_lossy_links_lose_surveys_and_the_table_says_so(tmp_path):

@@ -2,11 +2,13 @@
 packets ignored and counted (thesis digest 2.6: sequence numbers and packet age); links and loss draws."""
 
 import numpy as np
-import simpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nodesim.chain.links import LossDraws, SimpleLink
+from nodesim.chain.links import LossDraws
+from nodesim.chain.mac import Link
+from nodesim.chain.radio import simple_channel
+from nodesim.scenario import Scenario
 from nodesim.chain.packets import EstimatePacket, select_reference
 from nodesim.rng import RunStreams
 
@@ -67,16 +69,26 @@ def test_loss_draws_do_not_depend_on_block_size():
 
 
 def test_simple_link_delays_and_loses_with_the_given_probability():
+    """radio.model = "simple", mac.enabled = false: one attempt, link_delay_s, link_loss_probability."""
     streams = RunStreams(seed=9, n_nodes=1)
-    got = []
-    env = simpy.Environment()
-    link = SimpleLink.from_streams("l", streams, 0, 2000, delay_s=0.02, loss_probability=0.3)
-    env.process(link.send(env, _pkt(0, 0.0, np.ones(2000)), lambda p: got.append((env.now, p))))
-    env.run()
-    (t, p), = got
-    assert t == 0.02
-    assert abs((~p.valid).mean() - 0.3) < 0.04  # 2000 Bernoulli draws: sigma ~ 0.01
-    assert link.lost.sum() == (~p.valid).sum()
+    s = Scenario().with_overrides(**{"chain.link_delay_s": 0.02, "chain.link_loss_probability": 0.3})
+    link = Link(simple_channel(s, "l", 2000), LossDraws([streams.link(r, 0) for r in range(2000)]), s.mac)
+    tr = link.transfer(1.0, np.ones(2000, dtype=bool), None, None)
+    assert np.all(tr.arrival_s[tr.delivered] == 1.02)
+    assert abs((~tr.delivered).mean() - 0.3) < 0.04  # 2000 Bernoulli draws: sigma ~ 0.01
+    assert link.stats.lost.sum() == (~tr.delivered).sum()
     for prob, expect in ((0.0, True), (1.0, False)):
-        link = SimpleLink.from_streams("l", streams, 0, 5, delay_s=0.0, loss_probability=prob)
-        assert (link.draw_lost() != expect).all()
+        s = Scenario().with_overrides(**{"chain.link_loss_probability": prob})
+        link = Link(simple_channel(s, "l", 5), LossDraws([streams.link(r, 0) for r in range(5)]), s.mac)
+        assert (link.transfer(0.0, np.ones(5, dtype=bool), None, None).delivered == expect).all()
+
+
+def test_next_uniforms_equal_successive_single_draws_across_block_ends():
+    streams = RunStreams(seed=4, n_nodes=1)
+    a = LossDraws([streams.link(r, 0) for r in range(3)], block=5)
+    b = LossDraws([streams.link(r, 0) for r in range(3)], block=5)
+    masks = [np.array([1, 0, 1], bool), np.array([1, 1, 1], bool), np.array([0, 1, 1], bool)] * 4
+    for m in masks:
+        pair = a.next_uniforms(3, m)
+        single = np.stack([b.next_uniform(m) for _ in range(3)], axis=1)
+        assert np.array_equal(pair, single, equal_nan=True)

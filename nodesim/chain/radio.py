@@ -1,0 +1,180 @@
+"""Per-hop channels of the chain: mean path loss from the channel models, shadowing, PER per transmission.
+
+Hop h (0-based) feeds node h + 1: hop 0 runs from the surface to the top node, hop h >= 1 from node h to node
+h + 1.  ``radio.model = "simple"``: every attempt is lost with ``chain.link_loss_probability`` and takes
+``chain.link_delay_s``.  ``radio.model = "channel"``: the medium of the hop gives the mean path loss
+(:mod:`channel` through :mod:`nodesim.link_whatif`, nothing re-derived):
+
+* soil (868 MHz between tube ends): Peplinski permittivity -> alpha, beta -> thesis eq 5.2 over ``distance_m``;
+  a ``vwc_profile`` makes it a function of time, evaluated every ``radio.profile_step_s``;
+* pipe (5 GHz along a tube): TE11 attenuation of an air-filled carbon-steel tube (thesis 5.2) x ``length_m``;
+* cable (to the surface): a fixed ``loss_db``.
+
+Then P_r = P_t - L_p - X_(h,r) (thesis eq 5.1, 0 dBi antennas) with X_(h,r) ~ N(0, sigma^2) log-normal
+shadowing drawn once per hop and realization (a static borehole: the shadowing is a property of the hop, both
+directions share it), and PER = 1 - (1 - BER(SNR))^bits (:mod:`channel.per`) for data and ACK frames,
+tabulated per (time step, realization) so a transmission costs a table look-up.  The skip hop of the ad-hoc
+fallback (node h to node h + 2) spans hops h + 1 and h + 2: the same medium over the summed distance or
+length (mixed media: the summed losses), with its own shadowing draw.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from channel import budget, per
+from nodesim import link_whatif
+from nodesim.rng import RunStreams
+from nodesim.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class HopGeometry:
+    kind: str
+    distance_m: float  # soil distance, pipe length (0 for a cable)
+    loss_db: float  # cable loss
+    vwc: float | None  # soil water content override
+
+
+def hop_geometry(scenario: Scenario, h: int) -> HopGeometry:
+    """Medium and size of hop ``h`` (0-based) from the defaults and the ``[[radio.hop]]`` overrides."""
+    r = scenario.radio
+    kind = r.top_kind if h == 0 else r.kind
+    o = next((x for x in r.hop if x.hop == h + 1), None)
+    if o is not None and o.kind is not None:
+        kind = o.kind
+    dist = {"soil": r.soil.distance_m, "pipe": r.pipe.length_m, "cable": 0.0}[kind]
+    if o is not None and kind == "soil" and o.distance_m is not None:
+        dist = o.distance_m
+    if o is not None and kind == "pipe" and o.length_m is not None:
+        dist = o.length_m
+    loss = o.loss_db if o is not None and o.loss_db is not None else r.cable.loss_db
+    return HopGeometry(kind, dist, loss, o.vwc if o is not None else None)
+
+
+def _vwc(scenario: Scenario, geo: HopGeometry, t_s: np.ndarray) -> np.ndarray:
+    s = scenario.radio.soil
+    if geo.vwc is not None:
+        return np.full(t_s.shape, geo.vwc)
+    if s.vwc_profile:
+        rows = np.asarray(s.vwc_profile, dtype=float)
+        return np.interp(t_s, rows[:, 0], rows[:, 1])
+    return np.full(t_s.shape, s.vwc)
+
+
+def mean_path_loss_db(scenario: Scenario, geo: HopGeometry, t_s: np.ndarray) -> np.ndarray:
+    """Mean path loss of a hop at times ``t_s`` (thesis eq 5.2 for soil, alpha x length for the pipe)."""
+    r = scenario.radio
+    if geo.kind == "cable":
+        return np.full(t_s.shape, geo.loss_db)
+    if geo.kind == "soil":
+        p = {x.key: x.default for x in link_whatif.SOIL_PARAMS}
+        p.update({k: getattr(r.soil, k) for k in ("frequency_hz", "sand", "clay", "bulk_density_g_cm3",
+                                                  "particle_density_g_cm3", "temperature_c")})
+        p.update(distance_m=geo.distance_m, vwc=_vwc(scenario, geo, t_s))
+        return np.broadcast_to(link_whatif.evaluate_soil(p)["path_loss_db"], t_s.shape).astype(float)
+    p = {x.key: x.default for x in link_whatif.PIPE_PARAMS}
+    p.update({k: getattr(r.pipe, k) for k in ("frequency_hz", "radius_m", "carbon_wt_pct", "temperature_c")})
+    p["length_m"] = geo.distance_m
+    return np.full(t_s.shape, float(link_whatif.evaluate_pipe(p)["loss_db"]))
+
+
+def link_budget(scenario: Scenario, kind: str) -> budget.LinkBudget:
+    sec = getattr(scenario.radio, kind)
+    return budget.LinkBudget(sec.tx_power_dbm, sec.sensitivity_dbm)
+
+
+@dataclass
+class HopChannel:
+    """Per-attempt loss probabilities of one hop: ``per_data(t)`` and ``per_ack(t)``, shape (R,).
+
+    ``margin_db`` (G, R): P_r - sensitivity per time step and realization (shadowing included);
+    ``mean_margin_db``: without shadowing, at t = 0.  ``airtime_s``/``ack_airtime_s``: frame durations."""
+
+    name: str
+    kind: str
+    step_s: float
+    per_data_table: np.ndarray  # (G, R)
+    per_ack_table: np.ndarray  # (G, R)
+    margin_db: np.ndarray  # (G, R)
+    mean_path_loss_db: float
+    mean_margin_db: float
+    airtime_s: float
+    ack_airtime_s: float
+
+    def _row(self, t_s) -> np.ndarray:
+        g = np.clip((np.asarray(t_s) / self.step_s).astype(np.int64), 0, self.per_data_table.shape[0] - 1)
+        return g
+
+    def per_data(self, t_s: np.ndarray) -> np.ndarray:
+        if self.per_data_table.shape[0] == 1:
+            return self.per_data_table[0]
+        g = self._row(t_s)
+        return self.per_data_table[g, np.arange(g.shape[0])]
+
+    def per_ack(self, t_s: np.ndarray) -> np.ndarray:
+        if self.per_ack_table.shape[0] == 1:
+            return self.per_ack_table[0]
+        g = self._row(t_s)
+        return self.per_ack_table[g, np.arange(g.shape[0])]
+
+
+def simple_channel(scenario: Scenario, name: str, R: int) -> HopChannel:
+    """The fixed-delay link of ``[chain]``: loss ``link_loss_probability`` per attempt, ``link_delay_s`` long."""
+    c = scenario.chain
+    p = np.full((1, R), c.link_loss_probability)
+    return HopChannel(name, "simple", scenario.simulation.duration_s + 1.0, p, np.zeros((1, R)),
+                      np.full((1, R), np.inf), 0.0, np.inf, c.link_delay_s, c.link_delay_s)
+
+
+def _channel(scenario: Scenario, name: str, kind: str, path_loss_db: np.ndarray, shadow_db: np.ndarray,
+             frame_bits: int, ack_bits: int) -> HopChannel:
+    r = scenario.radio
+    radio = per.Radio(r.bit_rate_bps, r.bandwidth_hz, r.noise_figure_db)
+    b = link_budget(scenario, kind)
+    loss = path_loss_db[:, None] + shadow_db[None, :]  # (G, R)
+    rx = b.received_power_dbm(loss)
+    return HopChannel(
+        name=name, kind=kind, step_s=r.profile_step_s,
+        per_data_table=np.asarray(per.packet_error_rate(rx, frame_bits, radio), dtype=float),
+        per_ack_table=np.asarray(per.packet_error_rate(rx, ack_bits, radio), dtype=float),
+        margin_db=np.asarray(b.margin_db(loss), dtype=float),
+        mean_path_loss_db=float(path_loss_db[0]), mean_margin_db=float(b.margin_db(path_loss_db[0])),
+        airtime_s=frame_bits / r.bit_rate_bps, ack_airtime_s=ack_bits / r.bit_rate_bps,
+    )
+
+
+def _time_grid(scenario: Scenario) -> np.ndarray:
+    if not scenario.radio.soil.vwc_profile:
+        return np.zeros(1)
+    step = scenario.radio.profile_step_s
+    return np.arange(int(scenario.simulation.duration_s // step) + 1) * step
+
+
+def hop_channels(scenario: Scenario, streams: RunStreams, R: int) -> tuple[list[HopChannel], list[HopChannel | None]]:
+    """(hop channels, skip-hop channels) for hops 0..N-1.  Skip channel h (h >= 1) runs from node h to node h + 2
+    (None where there is no node h + 2, for hop 0, or with the simple model)."""
+    n = scenario.chain.nodes
+    if scenario.radio.model == "simple":
+        return [simple_channel(scenario, f"hop{h + 1}", R) for h in range(n)], [None] * n
+    m = scenario.mac
+    grid = _time_grid(scenario)
+    gens = [[streams.radio(r, h) for r in range(R)] for h in range(n)]
+    shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * scenario.radio.shadowing_sigma_db
+    skip_shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * scenario.radio.shadowing_sigma_db
+    geos = [hop_geometry(scenario, h) for h in range(n)]
+    losses = [mean_path_loss_db(scenario, g, grid) for g in geos]
+    hops = [_channel(scenario, f"hop{h + 1}", geos[h].kind, losses[h], shadow[h], m.frame_bits, m.ack_bits)
+            for h in range(n)]
+    skips: list[HopChannel | None] = [None] * n
+    for h in range(1, n - 1):
+        a, b = geos[h], geos[h + 1]
+        if a.kind == b.kind and a.kind != "cable":
+            joined = HopGeometry(a.kind, a.distance_m + b.distance_m, 0.0, a.vwc if a.vwc == b.vwc else None)
+            loss = mean_path_loss_db(scenario, joined, grid)
+        else:
+            loss = losses[h] + losses[h + 1]
+        skips[h] = _channel(scenario, f"skip{h}-{h + 2}", a.kind, loss, skip_shadow[h], m.frame_bits, m.ack_bits)
+    return hops, skips
