@@ -21,6 +21,7 @@ counts-to-deg/s scaling of the IMU driver delivers), the reference yaw and its v
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -51,6 +52,19 @@ class FixedFormats:
     innovation_deg: QFormat = QFormat(32, 20)  # deg: +/- 2048
     rounding: Rounding = Rounding.HALF_EVEN
     overflow: Overflow = Overflow.SATURATE
+
+    def with_word_length(self, word_bits: int) -> "FixedFormats":
+        """The same formats on a ``word_bits``-bit MCU word: every variable keeps its integer bits (its
+        range) and loses ``32 - word_bits`` fraction bits (its resolution); the yaw stays a binary angle."""
+        if not (isinstance(word_bits, int) and 8 <= word_bits <= 32):
+            raise FirmwareError(f"word_bits = {word_bits!r}: allowed integers 8..32")
+        drop = 32 - word_bits
+        changes = {
+            f.name: QFormat(word_bits, getattr(self, f.name).frac_bits - drop)
+            for f in dataclasses.fields(self)
+            if isinstance(getattr(self, f.name), QFormat)
+        }
+        return dataclasses.replace(self, **changes)
 
 
 def const(value: float, word_bits: int = 32, site: str = "constant") -> Fx:

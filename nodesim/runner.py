@@ -6,6 +6,7 @@ import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Callable
 
 import nodesim
 from nodesim.chain import simulate_chain
@@ -23,12 +24,17 @@ class RunOutcome:
 
 
 def run_scenario(
-    scenario: Scenario, scenario_hash: str | None, out_dir: Path | None = None, plots: bool = True
+    scenario: Scenario,
+    scenario_hash: str | None,
+    out_dir: Path | None = None,
+    plots: bool = True,
+    progress: Callable[[float], None] | None = None,
 ) -> RunOutcome:
-    """Simulate ``scenario`` and write its run directory.  Nothing is written if the simulation fails."""
+    """Simulate ``scenario`` and write its run directory.  Nothing is written if the simulation fails.
+    ``progress(fraction)`` is called as simulated time advances (a progress bar for long runs)."""
     started = datetime.now(timezone.utc)
     t0 = time.perf_counter()
-    run = simulate_chain(scenario)
+    run = simulate_chain(scenario, progress)
     t_sim = time.perf_counter() - t0
     per_real = per_realization_metrics(run, scenario.metrics)
     summary = summarize(per_real)

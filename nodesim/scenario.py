@@ -148,6 +148,9 @@ class FilterSection(_Section):
     """Node yaw filter settings (thesis 4.2.2; tuning factors A and B of eq 4.14)."""
 
     implementation: Literal["float", "fixed"] = "float"
+    fixed_word_bits: int = Field(
+        32, ge=8, le=32, description="fixed: MCU word length; fewer bits keep each variable's range, lose resolution"
+    )
     tuning_a: float = Field(1.0, gt=0.0, le=1e3)
     tuning_b: float = Field(5.0, gt=0.0, le=1e3)
     bias_tau_s: float = Field(500.0, gt=0.0, le=1e7)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from firmware_model.fixed_filter import FixedFormats
 from firmware_model.yaw_filter import (
     YawFilter,
     YawFilterConfig,
@@ -36,10 +37,18 @@ def filter_config(scenario: Scenario) -> YawFilterConfig:
     )
 
 
+def fixed_formats(scenario: Scenario) -> FixedFormats | None:
+    """The fixed filter's Q formats on a ``filter.fixed_word_bits`` word (None for the float filter)."""
+    if scenario.filter.implementation != "fixed":
+        return None
+    return FixedFormats().with_word_length(scenario.filter.fixed_word_bits)
+
+
 def new_filter(scenario: Scenario, realizations: int, initial_yaw_rad, initial_bias_rad_s) -> YawFilter:
     """A node's filter, started from the encoder yaw and the bias averaged over its static window."""
     return make_yaw_filter(
-        scenario.filter.implementation, filter_config(scenario), realizations, initial_yaw_rad, initial_bias_rad_s
+        scenario.filter.implementation, filter_config(scenario), realizations, initial_yaw_rad, initial_bias_rad_s,
+        formats=fixed_formats(scenario),
     )
 
 

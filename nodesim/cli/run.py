@@ -21,6 +21,7 @@ def register(sub) -> None:
     p.add_argument("--dry-run", action="store_true", help="validate and print the resolved scenario; write nothing")
     p.add_argument("--record", type=Path, default=None, help="also write realization 0 as a replay log (.csv or .parquet; nodesim replay reads it)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown only on a terminal anyway)")
     p.set_defaults(func=run)
 
 
@@ -39,7 +40,10 @@ def run(args) -> int:
     if args.dry_run:
         sys.stdout.write(dumps_json(scenario.model_dump()).decode())
         return 0
-    outcome = run_scenario(scenario, digest, args.out)
+    from nodesim.sweep.progress import SimulatedTimeProgress
+
+    with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
+        outcome = run_scenario(scenario, digest, args.out, progress=bar.update if bar.enabled else None)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 

@@ -29,10 +29,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from firmware_model.fixed_filter import FixedFormats
 from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
 from nodesim.allan import AllanNoise, overlapping_adev, read_noise
-from nodesim.chain.estimator import filter_config
+from nodesim.chain.estimator import filter_config, fixed_formats
 from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
 from nodesim.replay.reader import NodeLog, ReplayLog
@@ -58,6 +59,7 @@ class FirmwareSetup:
     encoder_variance_rad2: float
     config_schedule: UpdateSchedule
     noise_source: str = "config"
+    formats: FixedFormats | None = None  # fixed filter: its Q formats (filter.fixed_word_bits)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
@@ -74,6 +76,7 @@ class FirmwareSetup:
             encoder_variance_rad2=RotaryEncoder(counts_per_rev=s.encoder_counts_per_rev).quantisation_sigma_rad ** 2,
             config_schedule=schedule_of(scenario),
             noise_source="allan" if noise else "config",
+            formats=fixed_formats(scenario),
         )
 
 
@@ -220,7 +223,7 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
         if kf is None:
             y0 = 0.0 if no_enc else enc[k]  # no encoder: the yaw is relative to the start
             kf = make_yaw_filter(setup.implementation, setup.filter_config, 1, np.array([y0]),
-                                 bias_sum / bias_n if bias_n else 0.0)
+                                 bias_sum / bias_n if bias_n else 0.0, formats=setup.formats)
         elif not hold[k]:
             kf.predict(gyro[k : k + 1])
             if mask[k]:

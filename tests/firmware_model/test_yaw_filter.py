@@ -6,6 +6,7 @@ encoder quantisation sigma 0.1015 deg (1024 counts/rev, digest 2.6).
 """
 
 import math
+from dataclasses import fields
 
 import numpy as np
 import pytest
@@ -273,3 +274,38 @@ def test_two_node_chain_fixed_tracks_float():
     np.testing.assert_allclose(xb.yaw_variance_rad2, fb.yaw_variance_rad2, rtol=1e-2)
     with pytest.raises(FirmwareError, match="delay_s"):
         advance_binary_angle(xa.yaw, rate_fx, -1.0, xa.ctx)
+
+
+def test_word_length_keeps_ranges_and_drops_resolution():
+    """FixedFormats.with_word_length: same integer bits (range), 32 - w fewer fraction bits (resolution);
+    the filter's yaw error against the float filter grows as the word shrinks."""
+    base = FixedFormats()
+    short = base.with_word_length(20)
+    for f in fields(base):
+        a, b = getattr(base, f.name), getattr(short, f.name)
+        if isinstance(a, QFormat):
+            assert b.word_bits == 20 and b.int_bits == a.int_bits and b.frac_bits == a.frac_bits - 12
+    assert base.with_word_length(32) == base
+    with pytest.raises(FirmwareError, match="word_bits"):
+        base.with_word_length(7)
+
+    deg = math.pi / 180
+    cfg = YawFilterConfig(dt_s=1 / 1.9, arw_rad_per_sqrt_s=7.38e-3 * deg, bias_instability_rad_s=3.33e-3 * deg,
+                          bias_tau_s=500.0)
+    rng = np.random.default_rng(3)
+    rates = np.where((np.arange(800) > 200) & (np.arange(800) < 400), 71 * deg, 0.0)
+    gyro = rates[:, None] - 0.02 * deg + rng.normal(0, 0.01 * deg, (800, 2))
+    ref = np.cumsum(rates) / 1.9
+
+    def rms_vs_float(word):
+        fx = make_yaw_filter("fixed", cfg, 2, formats=base.with_word_length(word))
+        fl = make_yaw_filter("float", cfg, 2)
+        err = []
+        for k in range(800):
+            for f in (fx, fl):
+                f.predict(gyro[k])
+                f.update(np.full(2, ref[k]), (0.1015 * deg) ** 2)
+            err.append(np.angle(np.exp(1j * (fx.yaw_rad - fl.yaw_rad))))
+        return float(np.sqrt(np.mean(np.square(err)))) / deg
+
+    assert rms_vs_float(32) < 0.001 < rms_vs_float(24)

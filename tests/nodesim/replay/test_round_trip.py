@@ -77,6 +77,19 @@ def test_fixed_point_two_node_chain_round_trip(tmp_path):
     assert out.summary["bit_identical"] is True
 
 
+def test_short_word_fixed_point_round_trip(tmp_path):
+    """filter.fixed_word_bits reaches both the simulated and the replayed firmware (same formats)."""
+    cfg, _ = short_lab(tmp_path, {"duration_s": "300.0", "implementation": '"fixed"'}, "w20")
+    cfg.write_text(cfg.read_text().replace('implementation = "fixed"', 'implementation = "fixed"\nfixed_word_bits = 20'))
+    scenario = load_scenario(cfg)[0]
+    assert scenario.filter.fixed_word_bits == 20
+    run = simulate_chain(scenario)
+    out = replay(record_chain_run(tmp_path / "w20.csv", run, scenario), cfg, write=False)
+    assert_bit_identical(outputs(run), replayed(out))
+    full = simulate_chain(scenario.with_overrides(**{"filter.fixed_word_bits": 32}))
+    assert not np.array_equal(outputs(full)[0], outputs(run)[0])  # 12 fewer fraction bits change the output
+
+
 def test_first_divergence_names_tick_and_line(tmp_path):
     """A changed gyro sample makes the model leave the recorded firmware exactly at that tick."""
     cfg, scenario = short_lab(tmp_path, {"duration_s": "200.0"}, "div")
