@@ -9,6 +9,7 @@ degrees appear only here, at the edge, and are converted by the consumers throug
 from __future__ import annotations
 
 import hashlib
+import math
 import tomllib
 from pathlib import Path
 from typing import Any, Literal
@@ -125,6 +126,11 @@ class MotionSection(_Section):
         return self
 
 
+MPU6500_ACCEL_DATASHEET_PSD_UG = 300.0
+"""MPU6500 datasheet accelerometer noise power spectral density [ug/sqrt(Hz)], one-sided as datasheets give it
+(RMS noise = n sqrt(bandwidth)); a boxcar average over T has a noise bandwidth of 1/(2T), hence n / sqrt(2T)."""
+
+
 class SensorSection(_Section):
     """Simple IMU and encoder stand-in (z gyro, accelerometer triad, incremental encoder)."""
 
@@ -140,7 +146,16 @@ class SensorSection(_Section):
     )
     gyro_bias_instability_deg_s: float = Field(3.33e-3, ge=0.0, le=10.0, description="Gauss-Markov sigma")
     gyro_bias_tau_s: float = Field(500.0, gt=0.0, le=1e7, description="Gauss-Markov correlation time")
-    accel_noise_ug_per_sqrt_hz: float = Field(300.0, ge=0.0, le=1e6, description="MPU6500 datasheet")
+    accel_noise_ug_per_sqrt_hz: float = Field(
+        MPU6500_ACCEL_DATASHEET_PSD_UG / math.sqrt(2.0),
+        ge=0.0,
+        le=1e6,
+        description=(
+            "white-noise density in the two-sided (Allan, IEEE 952) convention of every noise density here: a "
+            "T-second average has sigma = value / sqrt(T); a datasheet's one-sided PSD n gives n / sqrt(2) "
+            "(MPU6500: 300 ug/sqrt(Hz) -> 212.1)"
+        ),
+    )
     encoder_counts_per_rev: int = Field(1024, ge=1, le=1 << 24)
 
 

@@ -22,8 +22,8 @@ from nodesim.validation import Check, within_abs, within_factor
 REALIZATIONS = 16
 T422 = "thesis table 4.22 (RMS errors 350-550 s, 32-point MAF)"
 NOISE_NOTE = (
-    "the MPU-6500 datasheet accelerometer noise (300 ug/sqrt(Hz)) alone gives ~0.12 deg RMS azimuth at 2 deg "
-    "inclination after the 32-point MAF; the thesis figure implies ~4x less noise"
+    "the MPU-6500 datasheet accelerometer noise (300 ug/sqrt(Hz) one-sided, 212 two-sided) alone gives ~0.085 deg "
+    "RMS azimuth at 2 deg inclination after the 32-point MAF; the thesis figure implies ~3x less noise"
 )
 OFFSET_NOTE = (
     "after convergence our yaw error in these modes is a few hundredths of a degree; the thesis figure is "
@@ -134,7 +134,7 @@ def orderings() -> list[Check]:
         Check("lab ordering: RMS yaw error node B / node A (hop count)", "thesis two-node experiment (azimuth 0.761 / 0.442 deg)",
               yaw_ratio, 0.761 / 0.442, "ordering (ratio > 1)", bool(yaw_ratio > 1.0),
               f"compared on the yaw error, the part a hop changes: the azimuth ratio B/A is {azi_ratio:.3f} because "
-              "each node's independent accelerometer noise (~0.12 deg) swamps the ~0.003 deg yaw-error growth"),
+              "each node's independent accelerometer noise (~0.085 deg) swamps the ~0.003 deg yaw-error growth"),
     ]
 
 

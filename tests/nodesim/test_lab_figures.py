@@ -1,9 +1,10 @@
 """Lab figures (thesis table 4.22 and 4.2.3): what our chain reproduces, and the measured gap explained.
 
-The continuous-mode azimuth gap (ours ~0.13 deg vs the thesis's 0.029 deg) is accelerometer noise: with
-the MPU-6500 datasheet density N = 300 ug/sqrt(Hz) averaged over one 1.9 Hz tick and then by the 32-point
-MAF, the azimuth noise at inclination I is N sqrt(f) / sqrt(32) / sin(I) (thesis eq 1.3: A = atan2(f_y, f_x),
-so a horizontal force error e moves A by e / (g sin I)).
+The continuous-mode azimuth gap (ours ~0.10 deg vs the thesis's 0.029 deg) is accelerometer noise: with
+the MPU-6500 datasheet PSD of 300 ug/sqrt(Hz) (one-sided), i.e. the two-sided density N = 300 / sqrt(2) the
+models use, averaged over one 1.9 Hz tick and then by the 32-point MAF, the azimuth noise at inclination I is
+N sqrt(f) / sqrt(32) / sin(I) (thesis eq 1.3: A = atan2(f_y, f_x), so a horizontal force error e moves A by
+e / (g sin I)).
 """
 
 import math
@@ -31,11 +32,13 @@ def _azimuth_rms(**over) -> float:
 
 
 def test_continuous_azimuth_floor_is_the_accelerometer_noise():
-    floor = math.degrees(300e-6 * math.sqrt(1.9) / math.sqrt(32) / math.sin(math.radians(2.0)))
-    assert floor == pytest.approx(0.120, abs=0.001)
+    density_ug = Scenario().sensor.accel_noise_ug_per_sqrt_hz
+    assert density_ug == pytest.approx(300.0 / math.sqrt(2.0))  # the datasheet's one-sided 300 ug/sqrt(Hz)
+    floor = math.degrees(density_ug * 1e-6 * math.sqrt(1.9) / math.sqrt(32) / math.sin(math.radians(2.0)))
+    assert floor == pytest.approx(0.0849, abs=0.001)
     assert _azimuth_rms() == pytest.approx(floor, rel=0.1)  # perfect gyro: only the accelerometer is left
     # halving the noise halves the error; a steeper hole shrinks it as 1 / sin(I)
-    assert _azimuth_rms(**{"sensor.accel_noise_ug_per_sqrt_hz": 150.0}) == pytest.approx(floor / 2, rel=0.1)
+    assert _azimuth_rms(**{"sensor.accel_noise_ug_per_sqrt_hz": density_ug / 2}) == pytest.approx(floor / 2, rel=0.1)
     steep = _azimuth_rms(**{"motion.inclination_deg": 8.0})
     assert steep == pytest.approx(floor * math.sin(math.radians(2.0)) / math.sin(math.radians(8.0)), rel=0.1)
     # the real (bundled) continuous case: gyro errors add little on top of the floor; 0.029 deg is out of reach
