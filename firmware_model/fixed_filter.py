@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from firmware_model import fixed_fast
 from firmware_model import fixedpoint as fp
 from firmware_model.errors import FirmwareError
 from firmware_model.fixedpoint import FixedContext, Fx, Overflow, QFormat, Rounding
@@ -145,8 +146,17 @@ class FixedYawFilter(YawFilter):
         return np.stack([np.stack([yy, yb], -1), np.stack([yb, bb], -1)], -2)
 
     @property
+    def yaw_variance_rad2(self) -> np.ndarray:
+        return fp.to_float(self.p_yy) / RAD_TO_DEG**2
+
+    @property
     def overflow_counts(self) -> dict[str, int]:
         return dict(self.ctx.counter.counts)
+
+    @property
+    def _fusable(self) -> bool:
+        """The fused fast path (:mod:`firmware_model.fixed_fast`) covers the default policy only."""
+        return self.ctx.rounding is Rounding.HALF_EVEN and self.ctx.overflow is Overflow.SATURATE
 
     def predict(self, measured_rate_rad_s) -> None:
         rate = batch_arg("gyro rate", check_finite("gyro rate", measured_rate_rad_s), self.realizations)
@@ -164,7 +174,14 @@ class FixedYawFilter(YawFilter):
 
     # ---- the firmware, on raw values -----------------------------------------------------------------
     def predict_raw(self, rate: Fx) -> None:
-        """Time update with the gyro rate already in fixed point (deg/s)."""
+        """Time update with the gyro rate already in fixed point (deg/s): the fused fast path when no
+        intermediate overflows, else primitive by primitive (same bits either way)."""
+        fast = self._fused(fixed_fast.predict, rate)
+        if fast is not None:
+            yaw, p_yy, p_yb, p_bb = fast
+            f = self.formats
+            self.yaw, self.p_yy, self.p_yb, self.p_bb = Fx(yaw, self.yaw.fmt), Fx(p_yy, f.p_yy), Fx(p_yb, f.p_yb), Fx(p_bb, f.p_bb)
+            return
         c, f = self.ctx, self.formats
         d = c.sub(rate, self.bias, f.rate, "rate - bias")
         self.yaw = _advance(self.yaw, d, self.k_turns, c, "yaw increment")  # binary angle: wraps by design
@@ -177,7 +194,15 @@ class FixedYawFilter(YawFilter):
         self.p_yy, self.p_yb, self.p_bb = self._floor_variance(p_yy), p_yb, self._floor_variance(p_bb)
 
     def update_raw(self, ref: Fx, r: Fx, mask: np.ndarray) -> None:
-        """Measurement update with the reference as a binary angle and its variance in P_yy's format."""
+        """Measurement update with the reference as a binary angle and its variance in P_yy's format (fused
+        fast path when no intermediate overflows, else primitive by primitive)."""
+        fast = self._fused(fixed_fast.update, ref, r)
+        if fast is not None:
+            yaw, bias, p_yy, p_yb, p_bb = fast
+            pick = lambda new, old: Fx(np.where(mask, new, old.raw), old.fmt)  # noqa: E731
+            self.yaw, self.bias, self.p_yb = pick(yaw, self.yaw), pick(bias, self.bias), pick(p_yb, self.p_yb)
+            self.p_yy, self.p_bb = pick(np.maximum(p_yy, 1), self.p_yy), pick(np.maximum(p_bb, 1), self.p_bb)
+            return
         c, f = self.ctx, self.formats
         z = fp.sub(self.yaw, ref, f.yaw, f.rounding, Overflow.WRAP)  # (int32_t)(yaw - ref): wrapped innovation
         s = c.add(self.p_yy, r, f.p_yy, "S = P_yy + R")
@@ -195,6 +220,16 @@ class FixedYawFilter(YawFilter):
         self.p_yy = pick(self._floor_variance(p_yy), self.p_yy)
         self.p_yb = pick(p_yb, self.p_yb)
         self.p_bb = pick(self._floor_variance(p_bb), self.p_bb)
+
+    def _fused(self, kernel, *args):
+        """The kernel's raws, or None where the exact path must run (another policy, an overflow, a case
+        the kernel does not fuse)."""
+        if not self._fusable:
+            return None
+        try:
+            return kernel(self, *args)
+        except fixed_fast.Unsupported:
+            return None
 
     @staticmethod
     def _floor_variance(p: Fx) -> Fx:
