@@ -29,10 +29,10 @@ class Unsupported(Exception):
 class _Trace:
     """Intermediates that the exact path would saturate, with their raw limits."""
 
-    __slots__ = ("vals", "lo", "hi")
+    __slots__ = ("vals", "lo", "hi", "scalar")
 
-    def __init__(self):
-        self.vals, self.lo, self.hi = [], [], []
+    def __init__(self, scalar: bool):
+        self.vals, self.lo, self.hi, self.scalar = [], [], [], scalar
 
     def sat(self, x: np.ndarray, lo: int, hi: int) -> np.ndarray:
         self.vals.append(x)
@@ -41,6 +41,8 @@ class _Trace:
         return x
 
     def in_range(self) -> bool:
+        if self.scalar:
+            return all(lo <= v <= hi for v, lo, hi in zip(self.vals, self.lo, self.hi))
         v = np.stack(self.vals)
         return not ((v < np.array(self.lo)[:, None]).any() or (v > np.array(self.hi)[:, None]).any())
 
@@ -89,8 +91,8 @@ def _aligned(a, fa: int, b, fb: int, sign: int) -> tuple[np.ndarray, int]:
     if abs(fa - fb) > 31:
         raise Unsupported
     f = max(fa, fb)
-    xa, xb = np.left_shift(a, f - fa), np.left_shift(b, f - fb)
-    return (np.add(xa, xb) if sign > 0 else np.subtract(xa, xb)), f
+    xa, xb = a << (f - fa), b << (f - fb)
+    return (xa + xb if sign > 0 else xa - xb), f
 
 
 def _add(tr, a, fa, b, fb, out):
@@ -104,7 +106,7 @@ def _sub(tr, a, fa, b, fb, out):
 
 
 def _mul(tr, a, fa, b, fb, out):
-    return _sat(tr, np.multiply(a, b), fa + fb, out)
+    return _sat(tr, a * b, fa + fb, out)
 
 
 def _div(tr, a, fa, b, fb, out):
@@ -112,64 +114,82 @@ def _div(tr, a, fa, b, fb, out):
     s = out.frac_bits - fa + fb
     if abs(s) > MAX_DIV_SHIFT:
         raise Unsupported
-    n, d = (np.left_shift(a, s), np.asarray(b)) if s >= 0 else (np.asarray(a), np.left_shift(b, -s))
+    n, d = (a << s, b) if s >= 0 else (a, b << -s)
     tr.sat(d, 1, INT64_MAX)
-    d = np.maximum(d, 1)
+    d = _floor(tr, d)
     q = n // d
     r2 = 2 * (n - q * d)
-    q = q + ((r2 > d) | ((r2 == d) & (q & 1).astype(bool)))
-    return tr.sat(np.asarray(q, dtype=np.int64), out.min_raw, out.max_raw)
+    q = q + ((r2 > d) | ((r2 == d) & ((q & 1) == 1)))
+    return tr.sat(q, out.min_raw, out.max_raw)
 
 
-def predict(kf, rate) -> tuple | None:
-    """(yaw, p_yy, p_yb, p_bb) raws after ``kf.predict_raw(rate)`` or None (run the exact path)."""
-    f, tr = kf.formats, _Trace()
-    yaw, bias, p_yy, p_yb, p_bb = kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb
-    d = _sub(tr, rate.raw, rate.fmt.frac_bits, bias.raw, bias.fmt.frac_bits, f.rate)
-    inc = _mul(tr, d, f.rate.frac_bits, kf.k_turns.raw, kf.k_turns.fmt.frac_bits, yaw.fmt)
-    x, fx = _aligned(yaw.raw, yaw.fmt.frac_bits, inc, yaw.fmt.frac_bits, 1)
-    new_yaw = _wrap(x, fx, yaw.fmt)
+def _floor(tr, x):
+    """max(x, 1) (the variance floor of the filter)."""
+    return max(x, 1) if tr.scalar else np.maximum(x, 1)
+
+
+def _raws(fxs, scalar: bool) -> list:
+    """The raw words of ``fxs``: Python ints for a single realization (no numpy call per primitive; every
+    fused intermediate of in-range words fits in int64, so int and int64 arithmetic agree), else arrays."""
+    if scalar:
+        return [int(x.raw.reshape(-1)[0]) for x in fxs]
+    return [x.raw for x in fxs]
+
+
+def _arrays(values, scalar: bool) -> tuple:
+    return tuple(np.array([v], dtype=np.int64) for v in values) if scalar else tuple(values)
+
+
+def _frac(fx) -> int:
+    return fx.fmt.frac_bits
+
+
+def predict(kf, rate, scalar: bool = False) -> tuple | None:
+    """(yaw, p_yy, p_yb, p_bb) raws after ``kf.predict_raw(rate)`` or None (run the exact path); ``scalar``:
+    a single realization, computed on Python ints."""
+    f, tr = kf.formats, _Trace(scalar)
+    yaw, bias, p_yy, p_yb, p_bb, rate_raw, k_turns, c_2dt, c_dt2, q_yy, c_dt, c_f, c_f2, q_bb = _raws(
+        (kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb, rate, kf.k_turns, kf.c_2dt, kf.c_dt2, kf.q_yy, kf.c_dt,
+         kf.c_f, kf.c_f2, kf.q_bb), scalar)
+    fy, fyy0, fyb0, fbb0 = _frac(kf.yaw), _frac(kf.p_yy), _frac(kf.p_yb), _frac(kf.p_bb)
     fyy, fyb, fbb = f.p_yy.frac_bits, f.p_yb.frac_bits, f.p_bb.frac_bits
-    y = _add(tr, p_yy.raw, p_yy.fmt.frac_bits,
-             _mul(tr, p_yb.raw, p_yb.fmt.frac_bits, kf.c_2dt.raw, kf.c_2dt.fmt.frac_bits, f.p_yy), fyy, f.p_yy)
-    y = _add(tr, y, fyy, _mul(tr, p_bb.raw, p_bb.fmt.frac_bits, kf.c_dt2.raw, kf.c_dt2.fmt.frac_bits, f.p_yy),
-             fyy, f.p_yy)
-    y = _add(tr, y, fyy, kf.q_yy.raw, kf.q_yy.fmt.frac_bits, f.p_yy)
-    yb = _add(tr, p_yb.raw, p_yb.fmt.frac_bits,
-              _mul(tr, p_bb.raw, p_bb.fmt.frac_bits, kf.c_dt.raw, kf.c_dt.fmt.frac_bits, f.p_yb), fyb, f.p_yb)
-    yb = _mul(tr, yb, fyb, kf.c_f.raw, kf.c_f.fmt.frac_bits, f.p_yb)
-    bb = _add(tr, _mul(tr, p_bb.raw, p_bb.fmt.frac_bits, kf.c_f2.raw, kf.c_f2.fmt.frac_bits, f.p_bb), fbb,
-              kf.q_bb.raw, kf.q_bb.fmt.frac_bits, f.p_bb)
+    d = _sub(tr, rate_raw, _frac(rate), bias, _frac(kf.bias), f.rate)
+    inc = _mul(tr, d, f.rate.frac_bits, k_turns, _frac(kf.k_turns), kf.yaw.fmt)
+    x, fx = _aligned(yaw, fy, inc, fy, 1)
+    new_yaw = _wrap(x, fx, kf.yaw.fmt)
+    y = _add(tr, p_yy, fyy0, _mul(tr, p_yb, fyb0, c_2dt, _frac(kf.c_2dt), f.p_yy), fyy, f.p_yy)
+    y = _add(tr, y, fyy, _mul(tr, p_bb, fbb0, c_dt2, _frac(kf.c_dt2), f.p_yy), fyy, f.p_yy)
+    y = _add(tr, y, fyy, q_yy, _frac(kf.q_yy), f.p_yy)
+    yb = _add(tr, p_yb, fyb0, _mul(tr, p_bb, fbb0, c_dt, _frac(kf.c_dt), f.p_yb), fyb, f.p_yb)
+    yb = _mul(tr, yb, fyb, c_f, _frac(kf.c_f), f.p_yb)
+    bb = _add(tr, _mul(tr, p_bb, fbb0, c_f2, _frac(kf.c_f2), f.p_bb), fbb, q_bb, _frac(kf.q_bb), f.p_bb)
     if not tr.in_range():
         return None
-    return new_yaw, np.maximum(y, 1), yb, np.maximum(bb, 1)
+    return _arrays((new_yaw, _floor(tr, y), yb, _floor(tr, bb)), scalar)
 
 
-def update(kf, ref, r) -> tuple | None:
+def update(kf, ref, r, scalar: bool = False) -> tuple | None:
     """(yaw, bias, p_yy, p_yb, p_bb) raws of ``kf.update_raw(ref, r, all)`` or None (run the exact path);
-    the caller applies the mask and the variance floor."""
-    f, tr = kf.formats, _Trace()
-    yaw, bias, p_yy, p_yb, p_bb = kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb
-    fy = yaw.fmt.frac_bits
-    x, fx = _aligned(yaw.raw, fy, ref.raw, ref.fmt.frac_bits, -1)
-    z = _wrap(x, fx, f.yaw)
-    fz = f.yaw.frac_bits
-    s = _add(tr, p_yy.raw, p_yy.fmt.frac_bits, r.raw, r.fmt.frac_bits, f.p_yy)
-    inv = _div(tr, kf.one.raw, kf.one.fmt.frac_bits, s, f.p_yy.frac_bits, f.inv_s)
-    fi = f.inv_s.frac_bits
-    k_y = _mul(tr, p_yy.raw, p_yy.fmt.frac_bits, inv, fi, f.gain_yaw)
-    k_b = _mul(tr, p_yb.raw, p_yb.fmt.frac_bits, inv, fi, f.gain_bias)
-    fky, fkb = f.gain_yaw.frac_bits, f.gain_bias.frac_bits
-    z_deg = _mul(tr, z, fz, kf.c_360.raw, kf.c_360.fmt.frac_bits, f.innovation_deg)
-    x, fx = _aligned(yaw.raw, fy, _mul(tr, k_y, fky, z, fz, f.yaw), fz, -1)
+    the caller applies the mask and the variance floor.  ``scalar`` as for :func:`predict`."""
+    f, tr = kf.formats, _Trace(scalar)
+    yaw, bias, p_yy, p_yb, p_bb, ref_raw, r_raw, one, c_360 = _raws(
+        (kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb, ref, r, kf.one, kf.c_360), scalar)
+    fy, fyy, fyb = _frac(kf.yaw), _frac(kf.p_yy), _frac(kf.p_yb)
+    fz, fi, fky, fkb = f.yaw.frac_bits, f.inv_s.frac_bits, f.gain_yaw.frac_bits, f.gain_bias.frac_bits
+    x, fx = _aligned(yaw, fy, ref_raw, _frac(ref), -1)
+    z = _wrap(x, fx, f.yaw)  # the wrapped innovation
+    s = _add(tr, p_yy, fyy, r_raw, _frac(r), f.p_yy)
+    inv = _div(tr, one, _frac(kf.one), s, f.p_yy.frac_bits, f.inv_s)
+    k_y = _mul(tr, p_yy, fyy, inv, fi, f.gain_yaw)
+    k_b = _mul(tr, p_yb, fyb, inv, fi, f.gain_bias)
+    z_deg = _mul(tr, z, fz, c_360, _frac(kf.c_360), f.innovation_deg)
+    x, fx = _aligned(yaw, fy, _mul(tr, k_y, fky, z, fz, f.yaw), fz, -1)
     new_yaw = _wrap(x, fx, f.yaw)
-    new_bias = _add(tr, bias.raw, bias.fmt.frac_bits,
-                    _mul(tr, k_b, fkb, z_deg, f.innovation_deg.frac_bits, f.bias), f.bias.frac_bits, f.bias)
-    fyy, fyb = p_yy.fmt.frac_bits, p_yb.fmt.frac_bits
-    yy = _sub(tr, p_yy.raw, fyy, _mul(tr, k_y, fky, p_yy.raw, fyy, f.p_yy), f.p_yy.frac_bits, f.p_yy)
-    yb = _sub(tr, p_yb.raw, fyb, _mul(tr, k_y, fky, p_yb.raw, fyb, f.p_yb), f.p_yb.frac_bits, f.p_yb)
-    bb = _sub(tr, p_bb.raw, p_bb.fmt.frac_bits, _mul(tr, k_b, fkb, p_yb.raw, fyb, f.p_bb), f.p_bb.frac_bits,
-              f.p_bb)
+    new_bias = _add(tr, bias, _frac(kf.bias), _mul(tr, k_b, fkb, z_deg, f.innovation_deg.frac_bits, f.bias),
+                    f.bias.frac_bits, f.bias)
+    yy = _sub(tr, p_yy, fyy, _mul(tr, k_y, fky, p_yy, fyy, f.p_yy), f.p_yy.frac_bits, f.p_yy)
+    yb = _sub(tr, p_yb, fyb, _mul(tr, k_y, fky, p_yb, fyb, f.p_yb), f.p_yb.frac_bits, f.p_yb)
+    bb = _sub(tr, p_bb, _frac(kf.p_bb), _mul(tr, k_b, fkb, p_yb, fyb, f.p_bb), f.p_bb.frac_bits, f.p_bb)
     if not tr.in_range():
         return None
-    return new_yaw, new_bias, yy, yb, bb
+    return _arrays((new_yaw, new_bias, yy, yb, bb), scalar)

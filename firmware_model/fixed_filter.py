@@ -178,9 +178,9 @@ class FixedYawFilter(YawFilter):
         intermediate overflows, else primitive by primitive (same bits either way)."""
         fast = self._fused(fixed_fast.predict, rate)
         if fast is not None:
-            yaw, p_yy, p_yb, p_bb = fast
             f = self.formats
-            self.yaw, self.p_yy, self.p_yb, self.p_bb = Fx(yaw, self.yaw.fmt), Fx(p_yy, f.p_yy), Fx(p_yb, f.p_yb), Fx(p_bb, f.p_bb)
+            self.yaw, self.p_yy, self.p_yb, self.p_bb = (
+                Fx(raw, fmt) for raw, fmt in zip(fast, (self.yaw.fmt, f.p_yy, f.p_yb, f.p_bb)))
             return
         c, f = self.ctx, self.formats
         d = c.sub(rate, self.bias, f.rate, "rate - bias")
@@ -227,7 +227,7 @@ class FixedYawFilter(YawFilter):
         if not self._fusable:
             return None
         try:
-            return kernel(self, *args)
+            return kernel(self, *args, scalar=self.realizations == 1)
         except fixed_fast.Unsupported:
             return None
 

@@ -19,6 +19,7 @@ LOSSY = {  # the perf chain's hops: 0.95 dB margin, PER 0.12 per frame, ARQ with
 CASES = {
     "lossy_arq_dead_node_fallback": {**LOSSY, "chain.nodes": 4, "simulation.duration_s": 160.0,
                                      "metrics.window_end_s": 160.0, "radio.soil.distance_m": 1.0,
+                                     "simulation.realizations": 1,  # the Python-int path of R = 1
                                      "faults.node_failure": [{"node": 2, "at_s": 100.0}]},
     "lossy_arq_outage_word16": {**LOSSY, "chain.nodes": 3, "simulation.duration_s": 140.0,
                                 "metrics.window_end_s": 140.0, "filter.fixed_word_bits": 16,
