@@ -136,6 +136,17 @@ def _raws(fxs, scalar: bool) -> list:
     return [x.raw for x in fxs]
 
 
+CONSTANTS = ("k_turns", "c_2dt", "c_dt2", "q_yy", "c_dt", "c_f", "c_f2", "q_bb", "one", "c_360")
+
+
+def _constants(kf, scalar: bool) -> list:
+    """The raws of the filter's build-time constants (cached on the filter: they never change)."""
+    cache = kf.__dict__.setdefault("_fused_constants", {})
+    if scalar not in cache:
+        cache[scalar] = _raws([getattr(kf, name) for name in CONSTANTS], scalar)
+    return cache[scalar]
+
+
 def _arrays(values, scalar: bool) -> tuple:
     return tuple(np.array([v], dtype=np.int64) for v in values) if scalar else tuple(values)
 
@@ -148,9 +159,8 @@ def predict(kf, rate, scalar: bool = False) -> tuple | None:
     """(yaw, p_yy, p_yb, p_bb) raws after ``kf.predict_raw(rate)`` or None (run the exact path); ``scalar``:
     a single realization, computed on Python ints."""
     f, tr = kf.formats, _Trace(scalar)
-    yaw, bias, p_yy, p_yb, p_bb, rate_raw, k_turns, c_2dt, c_dt2, q_yy, c_dt, c_f, c_f2, q_bb = _raws(
-        (kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb, rate, kf.k_turns, kf.c_2dt, kf.c_dt2, kf.q_yy, kf.c_dt,
-         kf.c_f, kf.c_f2, kf.q_bb), scalar)
+    yaw, bias, p_yy, p_yb, p_bb, rate_raw = _raws((kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb, rate), scalar)
+    k_turns, c_2dt, c_dt2, q_yy, c_dt, c_f, c_f2, q_bb, _, _ = _constants(kf, scalar)
     fy, fyy0, fyb0, fbb0 = _frac(kf.yaw), _frac(kf.p_yy), _frac(kf.p_yb), _frac(kf.p_bb)
     fyy, fyb, fbb = f.p_yy.frac_bits, f.p_yb.frac_bits, f.p_bb.frac_bits
     d = _sub(tr, rate_raw, _frac(rate), bias, _frac(kf.bias), f.rate)
@@ -172,8 +182,8 @@ def update(kf, ref, r, scalar: bool = False) -> tuple | None:
     """(yaw, bias, p_yy, p_yb, p_bb) raws of ``kf.update_raw(ref, r, all)`` or None (run the exact path);
     the caller applies the mask and the variance floor.  ``scalar`` as for :func:`predict`."""
     f, tr = kf.formats, _Trace(scalar)
-    yaw, bias, p_yy, p_yb, p_bb, ref_raw, r_raw, one, c_360 = _raws(
-        (kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb, ref, r, kf.one, kf.c_360), scalar)
+    yaw, bias, p_yy, p_yb, p_bb, ref_raw, r_raw = _raws((kf.yaw, kf.bias, kf.p_yy, kf.p_yb, kf.p_bb, ref, r), scalar)
+    one, c_360 = _constants(kf, scalar)[-2:]
     fy, fyy, fyb = _frac(kf.yaw), _frac(kf.p_yy), _frac(kf.p_yb)
     fz, fi, fky, fkb = f.yaw.frac_bits, f.inv_s.frac_bits, f.gain_yaw.frac_bits, f.gain_bias.frac_bits
     x, fx = _aligned(yaw, fy, ref_raw, _frac(ref), -1)
