@@ -30,6 +30,7 @@ or wrapped) under a site name, so a run can report how often the firmware satura
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -302,6 +303,10 @@ def from_float(
     """Explicit float -> fixed conversion (C: ``sat(round(x * (1 << F)))``); NaN/inf raise FirmwareError."""
     rounding, overflow = Rounding(rounding), Overflow(overflow)
     x = np.asarray(x, dtype=float)
+    if x.size == 1 and rounding is Rounding.HALF_EVEN:
+        raw = _from_float_one(float(x.reshape(-1)[0]), fmt, overflow, counter, site)
+        if raw is not None:
+            return Fx(np.int64(raw) if x.ndim == 0 else np.full(x.shape, raw, dtype=np.int64), fmt)
     bad = ~np.isfinite(x)
     if bad.any():
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
@@ -329,6 +334,28 @@ def from_float(
     if overflow is Overflow.WRAP:
         raw = _overflow(raw, fmt, Overflow.WRAP, None, site)
     return Fx(raw, fmt)
+
+
+def _from_float_one(v: float, fmt: QFormat, overflow: Overflow, counter, site: str) -> int | None:
+    """:func:`from_float` of one number with round half even, on Python numbers (no numpy call; the same IEEE
+    operations: exact scaling by 2**F, ``round`` is round-half-even like ``np.rint``, the limits of a <= 32-bit
+    word are exact doubles).  None for what the array path handles (non-finite input, scaling overflow)."""
+    if not math.isfinite(v):
+        return None
+    try:
+        y = round(math.ldexp(v, fmt.frac_bits))
+    except OverflowError:
+        return None
+    lo, hi = fmt.min_raw, fmt.max_raw
+    if lo <= y <= hi:
+        return y
+    if counter is not None:
+        counter.record(site, 1)
+    if overflow is Overflow.SATURATE:
+        return hi if y > hi else lo
+    w = fmt.word_bits
+    y &= (1 << w) - 1
+    return y - ((y >> (w - 1)) << w)
 
 
 def to_float(a: Fx) -> np.ndarray:

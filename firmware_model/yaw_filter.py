@@ -90,6 +90,8 @@ def check_finite(name: str, x) -> np.ndarray:
 def batch_arg(name: str, x, realizations: int, dtype=float) -> np.ndarray:
     """Broadcast a scalar or (R,) argument to (R,), naming the argument when the shape does not fit."""
     x = np.asarray(x, dtype=dtype)
+    if x.shape == (realizations,):  # already (R,): skip the broadcast (a per-tick call in the chain)
+        return x
     try:
         return np.broadcast_to(x, (realizations,))
     except ValueError:

@@ -87,3 +87,27 @@ def test_other_policies_use_the_exact_path(rounding):
     f.predict(np.ones(2) * 0.01)
     f.update(np.zeros(2), np.ones(2) * 1e-4)
     assert FixedYawFilter(CFG, 2, formats=FixedFormats(overflow=Overflow.SATURATE))._fusable
+
+
+@settings(max_examples=300, deadline=None)
+@given(v=st.one_of(st.floats(allow_nan=False, allow_infinity=False),
+                   st.integers(-(1 << 40), 1 << 40).map(lambda n: n / 2.0),  # ties at every scale
+                   st.floats(-1e-3, 1e-3)),
+       word=st.integers(2, 32), frac=st.integers(-31, 62), overflow=st.sampled_from(list(Overflow)))
+def test_scalar_from_float_matches_the_array_path(v, word, frac, overflow):
+    """One number goes through Python floats (fixedpoint._from_float_one), two through numpy: same raw, same
+    overflow count, same type for a 0-d input."""
+    from firmware_model.fixedpoint import OverflowCounter, QFormat, from_float
+
+    fmt = QFormat(word, frac)
+    c1, c2 = OverflowCounter(), OverflowCounter()
+    with np.errstate(over="ignore", invalid="ignore"):  # 2**F scaling to inf: both take the array path
+        one = from_float(np.array([v]), fmt, overflow=overflow, counter=c1)
+        two = from_float(np.array([v, 0.0]), fmt, overflow=overflow, counter=c2)
+        zero_d = from_float(v, fmt, overflow=overflow)
+        pair_raw = from_float(np.array([v, v]), fmt, overflow=overflow).raw
+    assert one.raw.dtype == np.int64 and one.raw.shape == (1,)
+    assert int(one.raw[0]) == int(two.raw[0])
+    assert c1.counts == c2.counts
+    assert type(zero_d.raw) is type(pair_raw[0])
+    assert int(zero_d.raw) == int(one.raw[0])
