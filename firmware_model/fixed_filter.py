@@ -34,6 +34,7 @@ from firmware_model.fixedpoint import FixedContext, Fx, Overflow, QFormat, Round
 from firmware_model.yaw_filter import YawFilter, YawFilterConfig, batch_arg, check_finite, check_realizations
 
 RAD_TO_DEG = 180.0 / math.pi
+FUSE_MAX_REALIZATIONS = 2048  # the fused fast path's batch limit (see FixedYawFilter._fusable)
 TURN_RAD = 2.0 * math.pi
 
 
@@ -155,8 +156,11 @@ class FixedYawFilter(YawFilter):
 
     @property
     def _fusable(self) -> bool:
-        """The fused fast path (:mod:`firmware_model.fixed_fast`) covers the default policy only."""
-        return self.ctx.rounding is Rounding.HALF_EVEN and self.ctx.overflow is Overflow.SATURATE
+        """The fused fast path (:mod:`firmware_model.fixed_fast`) covers the default policy only, and pays off
+        where per-call overhead dominates (measured: 2.5x faster at R = 1, 1.5x at R = 64, even at R = 2048,
+        slower at R = 10,000, where the primitives' in-place scratch arrays win)."""
+        return (self.realizations <= FUSE_MAX_REALIZATIONS and self.ctx.rounding is Rounding.HALF_EVEN
+                and self.ctx.overflow is Overflow.SATURATE)
 
     def predict(self, measured_rate_rad_s) -> None:
         rate = batch_arg("gyro rate", check_finite("gyro rate", measured_rate_rad_s), self.realizations)

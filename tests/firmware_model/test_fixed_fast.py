@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_model import fixed_fast
-from firmware_model.fixed_filter import FixedFormats, FixedYawFilter
+from firmware_model.fixed_filter import FUSE_MAX_REALIZATIONS, FixedFormats, FixedYawFilter
 from firmware_model.fixedpoint import Fx, Overflow, Rounding
 from firmware_model.yaw_filter import YawFilterConfig
 
@@ -87,6 +87,9 @@ def test_other_policies_use_the_exact_path(rounding):
     f.predict(np.ones(2) * 0.01)
     f.update(np.zeros(2), np.ones(2) * 1e-4)
     assert FixedYawFilter(CFG, 2, formats=FixedFormats(overflow=Overflow.SATURATE))._fusable
+    big = FixedYawFilter(CFG, FUSE_MAX_REALIZATIONS + 1)  # large batches: the primitives' scratch arrays win
+    assert not big._fusable
+    big.predict(np.full(FUSE_MAX_REALIZATIONS + 1, 0.01))
 
 
 @settings(max_examples=300, deadline=None)
