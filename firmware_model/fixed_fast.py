@@ -23,7 +23,8 @@ MAX_DIV_SHIFT = 30
 
 
 class Unsupported(Exception):
-    """A case the fast path does not cover; the exact path computes (or rejects) it."""
+    """A case the fast path does not cover (or a single realization's overflow); the exact path computes (or
+    rejects) it."""
 
 
 class _Trace:
@@ -35,6 +36,10 @@ class _Trace:
         self.vals, self.lo, self.hi, self.scalar = [], [], [], scalar
 
     def sat(self, x: np.ndarray, lo: int, hi: int) -> np.ndarray:
+        if self.scalar:  # a Python int is checked at once: an overflow ends the fast path early
+            if not lo <= x <= hi:
+                raise Unsupported
+            return x
         self.vals.append(x)
         self.lo.append(lo)
         self.hi.append(hi)
@@ -42,7 +47,7 @@ class _Trace:
 
     def in_range(self) -> bool:
         if self.scalar:
-            return all(lo <= v <= hi for v, lo, hi in zip(self.vals, self.lo, self.hi))
+            return True  # checked in sat
         v = np.stack(self.vals)
         return not ((v < np.array(self.lo)[:, None]).any() or (v > np.array(self.hi)[:, None]).any())
 
