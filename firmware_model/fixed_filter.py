@@ -203,7 +203,10 @@ class FixedYawFilter(YawFilter):
         fast = self._fused(fixed_fast.update, ref, r)
         if fast is not None:
             yaw, bias, p_yy, p_yb, p_bb = fast
-            pick = lambda new, old: Fx(np.where(mask, new, old.raw), old.fmt)  # noqa: E731
+            if mask.all():  # every realization got the reference (always so at R = 1 in the chain)
+                pick = lambda new, old: Fx(new, old.fmt)  # noqa: E731
+            else:
+                pick = lambda new, old: Fx(np.where(mask, new, old.raw), old.fmt)  # noqa: E731
             self.yaw, self.bias, self.p_yb = pick(yaw, self.yaw), pick(bias, self.bias), pick(p_yb, self.p_yb)
             self.p_yy, self.p_bb = pick(np.maximum(p_yy, 1), self.p_yy), pick(np.maximum(p_bb, 1), self.p_bb)
             return
