@@ -7,13 +7,13 @@ row i = sensor axis i, so meas = matrix @ true + bias) and the residuals per pos
 
 from __future__ import annotations
 
-import csv
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from nodesim.calibration import calibrate
+from nodesim.csv_input import read_header_and_rows
 from nodesim.errors import NodesimError
 from nodesim.results import dumps_json
 
@@ -35,20 +35,10 @@ def register(sub) -> None:
 def read_positions(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(true (N,3), meas (N,3)) from a calibration CSV; errors name the file, row and column."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise NodesimError(f"{path}: cannot read calibration data ({getattr(err, 'strerror', None) or err})") from None
-    rows = list(csv.reader(line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")))
-    if not rows:
-        raise NodesimError(f"{path}: empty file (expected a header {','.join(COLUMNS)})")
-    header = [h.strip() for h in rows[0]]
-    missing = [c for c in COLUMNS if c not in header]
-    if missing:
-        raise NodesimError(f"{path}: missing column(s) {', '.join(missing)} (header must contain {','.join(COLUMNS)})")
+    header, data = read_header_and_rows(path, COLUMNS, "calibration data")
     idx = [header.index(c) for c in COLUMNS]
-    values = np.empty((len(rows) - 1, 6))
-    for r, row in enumerate(rows[1:], start=2):
+    values = np.empty((len(data), 6))
+    for r, row in enumerate(data, start=2):
         if len(row) != len(header):
             raise NodesimError(f"{path}: row {r} has {len(row)} fields, the header has {len(header)}")
         for k, (i, name) in enumerate(zip(idx, COLUMNS)):

@@ -12,12 +12,12 @@ adds them as random direct terms (codes ``SURVEY-INC`` and ``SURVEY-AZ``).
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from nodesim.csv_input import read_header_and_rows
 from nodesim.errors import NodesimError
 from nodesim.units import DEG
 
@@ -112,19 +112,9 @@ def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
     """Read a survey CSV (header ``md_m,inc_deg,azi_deg`` plus optional ``time_s``, ``sigma_inc_deg``,
     ``sigma_azi_deg``); errors name the file, row and column."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise NodesimError(f"{path}: cannot read survey ({err})") from err
-    rows = list(csv.reader(line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")))
-    if not rows:
-        raise NodesimError(f"{path}: empty survey file (expected header {','.join(REQUIRED_COLUMNS)})")
-    header = [h.strip() for h in rows[0]]
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise NodesimError(f"{path}: missing column(s) {missing}; header must contain {list(REQUIRED_COLUMNS)} (optional time_s)")
+    header, data = read_header_and_rows(path, REQUIRED_COLUMNS, "survey")
     cols = {name: [] for name in header}
-    for i, row in enumerate(rows[1:], start=1):
+    for i, row in enumerate(data, start=1):
         if len(row) != len(header):
             raise NodesimError(f"{path}: row {i}: {len(row)} fields, header has {len(header)}")
         for name, value in zip(header, row):

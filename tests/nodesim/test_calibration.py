@@ -124,7 +124,7 @@ def test_cli_json_contract(tmp_path, capsys):
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,abc,0,0\n", "row 2, column meas_x: 'abc'"),
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,1,0\n", "row 2 has 5 fields"),
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n", "no data rows"),
-        ("", "empty file"),
+        ("", "empty calibration data file"),
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,1,0,0\n0,1,0,0,1,0\n0,0,1,0,0,1\n", "need >= 12"),
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n" + "1,0,0,1,0,0\n" * 5, "do not determine"),
     ],
