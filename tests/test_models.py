@@ -11,7 +11,8 @@ from firmware_model.yaw_filter import FloatYawFilter, YawFilterConfig
 from nodesim.kinematics import LabRotationProfile
 from nodesim.results import atomic_write_with
 from nodesim.schedules import UpdateSchedule
-from nodesim.sensors import AccelModel, Encoder
+from nodesim.sensors import AccelModel
+from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG
 
 
@@ -49,7 +50,7 @@ def test_circular_average_across_north():
 
 
 def test_encoder_quantisation_sigma_matches_thesis_digest():
-    enc = Encoder(1024)
+    enc = RotaryEncoder(1024)
     assert math.isclose(enc.step_rad / DEG, 0.3515625)
     assert math.isclose(enc.quantisation_sigma_rad / DEG, 0.1015, rel_tol=1e-3)
     assert float(enc.read_rad(0.15 * DEG)) == 0.0  # below half a count

@@ -20,9 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodesim.kinematics import LabRotationProfile
 from nodesim.sensors import noise
-from nodesim.sensors.encoder import RotaryEncoder as Encoder  # noqa: F401  (the stand-in name used by the simulation)
 from nodesim.sensors.magnetometer import specific_force_body
 
 
@@ -73,8 +71,3 @@ class AccelModel:
     def noise(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
         """White noise averaged over one tick, shape (R, K, 3)."""
         return np.stack([noise.white(rng, (n_ticks, 3), self.noise_m_s2_per_sqrt_hz, dt_s) for rng in rng_per_realization])
-
-
-def lab_tick_signals(profile: LabRotationProfile, t_start_s: np.ndarray, dt_s: float):
-    """True yaw at tick start and true mean rate over each tick [t, t+dt) for the lab profile."""
-    return profile.yaw_rad(t_start_s), profile.mean_rate_rad_s(t_start_s, t_start_s + dt_s)
