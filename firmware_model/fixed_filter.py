@@ -167,14 +167,44 @@ class FixedYawFilter(YawFilter):
         self.predict_raw(self.ctx.from_float(rate * RAD_TO_DEG, self.formats.rate, "gyro rate"))
 
     def update(self, reference_yaw_rad, reference_variance_rad2, mask=None) -> None:
-        f = self.formats
+        """Measurement update in the ``mask`` realizations; the others keep their state and count no overflow
+        (their reference does not exist: only the realizations that received one convert and use it)."""
         ref = batch_arg("reference yaw", check_finite("reference yaw", reference_yaw_rad), self.realizations)
         r = batch_arg("reference variance", check_finite("reference variance", reference_variance_rad2), self.realizations)
         if np.any(r < 0):
             raise FirmwareError("reference variance: negative value; allowed >= 0 (rad^2)")
+        mask = self._mask(mask)
+        if mask.all():
+            self._update_float(ref, r)
+            return
+        lanes = np.flatnonzero(mask)  # the others neither change nor count overflows of references they never got
+        if lanes.size:
+            self._on_lanes(lanes, lambda: self._update_float(ref[lanes], r[lanes]))
+
+    def _update_float(self, ref: np.ndarray, r: np.ndarray) -> None:
+        f = self.formats
         ref_fx = fp.from_float(ref / TURN_RAD, f.yaw, f.rounding, Overflow.WRAP)  # binary angle, wraps
         r_fx = self.ctx.from_float(r * RAD_TO_DEG**2, f.p_yy, "reference variance")
-        self.update_raw(ref_fx, r_fx, self._mask(mask))
+        self.update_raw(ref_fx, r_fx, np.ones(ref.shape[0], dtype=bool))
+
+    STATE = ("yaw", "bias", "p_yy", "p_yb", "p_bb")
+
+    def _on_lanes(self, lanes: np.ndarray, step) -> None:
+        """Run ``step`` on the realizations ``lanes`` only (their state gathered, stepped, scattered back)."""
+        full = {name: getattr(self, name) for name in self.STATE}
+        R = self.realizations
+        try:
+            for name, fx in full.items():
+                setattr(self, name, Fx(fx.raw[lanes], fx.fmt))
+            self.realizations = lanes.size
+            step()
+        finally:
+            stepped = {name: getattr(self, name) for name in self.STATE}
+            self.realizations = R
+            for name, fx in full.items():
+                raw = np.array(fx.raw, dtype=np.int64, copy=True)
+                raw[lanes] = stepped[name].raw
+                setattr(self, name, Fx(raw, stepped[name].fmt))
 
     # ---- the firmware, on raw values -----------------------------------------------------------------
     def predict_raw(self, rate: Fx) -> None:

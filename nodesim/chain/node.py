@@ -137,7 +137,7 @@ class ChainNode:
         yaw_enc, rate_enc = self.net.encoder.read_many(t_read)
         ref = yaw_enc - rate_enc * (t_read - t)
         self.kf.update(ref, self.net.encoder.variance_rad2, mask=have)
-        self.ref_yaw[:, k], self.ref_var[:, k] = ref, self.net.encoder.variance_rad2
+        self._record_reference(k, have, ref, self.net.encoder.variance_rad2)
         self.applied[:, k] = have
         self.age[:, k] = np.where(have, reply.arrival_s - t_read, np.nan)
         self.ready_s = np.where(have, reply.arrival_s, t)
@@ -174,10 +174,15 @@ class ChainNode:
         ref, var = forwarded_reference(sel.yaw_rad, var_in, omega, transfer, self.sig.gyro_white_sigma_rad_s,
                                        self.net.offset_sigma_rad)
         self.kf.update(ref, var, mask=sel.have)
-        self.ref_yaw[:, k], self.ref_var[:, k] = ref, var
+        self._record_reference(k, sel.have, ref, var)
         self.last_seq = np.where(sel.have, sel.seq, self.last_seq)
         self.applied[:, k] = sel.have
         self.age[:, k] = np.where(sel.have, transfer, np.nan)
+
+    def _record_reference(self, k: int, have: np.ndarray, ref, var) -> None:
+        """The reference each applied update used (NaN in the realizations without an update)."""
+        self.ref_yaw[:, k] = np.where(have, ref, np.nan)
+        self.ref_var[:, k] = np.where(have, var, np.nan)
 
     def _record(self, k: int) -> None:
         self.yaw[:, k] = self.kf.yaw_rad
