@@ -30,6 +30,9 @@ class SimulationSection(_Section):
         0, ge=0, le=1_000_000_000,
         description="index of the first realization: the run covers realizations first .. first + R - 1 of the "
         "root seed, so realization r alone is first_realization = r, realizations = 1")
+    engine: Literal["auto", "event", "compiled"] = Field(
+        "auto", description="chain engine: 'event' (SimPy, every feature), 'compiled' (numba, lab motion; same "
+        "numbers, much faster), 'auto' (compiled where it covers the scenario, else event)")
 
 
 class NodeClockSection(_Section):

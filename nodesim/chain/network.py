@@ -208,6 +208,10 @@ class Network:
         self.env.run()
         if progress is not None:
             progress(1.0)
+        return self.result()
+
+    def result(self) -> ChainRun:
+        """The run's records (after :meth:`run`, or after the compiled engine filled them in)."""
         points = self.scenario.filter.moving_average_points
         runs = tuple(_node_run(n, points) for n in self.nodes)
         skips = tuple(s for _, s in sorted(self._skip_links.items()) if s.stats.frames.any())
@@ -267,6 +271,11 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
 
 
 def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None = None) -> ChainRun:
-    """Run ``scenario``: R realizations of the encoder-aided chain (a single node is a chain of one).
-    ``progress(fraction)`` is called as simulated time advances (see :meth:`Network.run`)."""
+    """Run ``scenario``: R realizations of the encoder-aided chain (a single node is a chain of one), on the
+    engine ``simulation.engine`` names (``auto``: the compiled engine where it covers the scenario, else the
+    SimPy event engine; both give the same numbers).  ``progress(fraction)`` is called as the run advances."""
+    from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
+
+    if choose_engine(scenario) == "compiled":
+        return simulate_compiled(Network(scenario), progress)
     return Network(scenario).run(progress)

@@ -1,0 +1,63 @@
+"""Phase 2 of the compiled engine: one node's filter over its running ticks, given what phase 1 resolved.
+
+Estimates only flow down the chain, so the nodes are run one after the other from the top, each over all of its
+ticks, with the references phase 1 chose (:mod:`nodesim.chain.compiled.events`).  Per running tick k and
+realization r, as :class:`nodesim.chain.node.ChainNode` does it:
+    predict with the tick-averaged gyro rate;
+    top node, scheduled tick, reply received:  update with the encoder reference (computed by the caller);
+    other nodes, a packet taken from node n - s (s = 1, or 2 after a fallback) read at its tick j:
+        transfer = T[k] - T_(n-s)[j],  omega = gyro - bias_hat  (+ slope (dt - transfer) / 2 when extrapolated)
+        psi_ref = psi_hat_(n-s)[j] + omega transfer                                  (thesis eq 3.29)
+        R = P_(n-s)[j] + (transfer sigma_rate)^2 + sigma_off^2                        (thesis digest 2.6)
+    record yaw, P_yy and bias.
+The filter arithmetic comes in as compiled functions (``kernels`` = predict, update, yaw_rad, bias_rad_s,
+yaw_variance_rad2 of :mod:`.float_kernel` or :mod:`.fixed_kernel`), so float and fixed share this loop.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+
+@njit(cache=True)
+def run_node(kernels, state, params, counts, gyro, t, k_first, k_end, is_top, scheduled, enc_ref, enc_var,
+             applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
+             yaw, var, bias, ref_yaw, ref_var) -> None:
+    """Ticks ``k_first`` .. ``k_end - 1`` of one node (module docstring); ``up_*`` = (node above, node two
+    above) tick times and records; ``src_node`` holds 1 or 2 (how far up the reference came from), -1 for none."""
+    predict, update, yaw_of, bias_of, var_of = kernels
+    R = state.shape[0]
+    for k in range(k_first, k_end):
+        tk = t[k]
+        for r in range(R):
+            predict(state[r], gyro[r, k], params, counts)
+            if is_top:
+                if scheduled[k] and applied[k, r]:
+                    update(state[r], enc_ref[k, r], enc_var, params, counts)
+                    ref_yaw[r, k], ref_var[r, k] = enc_ref[k, r], enc_var
+            elif src_node[k, r] > 0:
+                s, j = src_node[k, r] - 1, src_tick[k, r]
+                transfer = tk - up_t[s][j]
+                omega = gyro[r, k] - bias_of(state[r], params)
+                if extrapolate and k > 0:
+                    slope = (gyro[r, k] - gyro[r, k - 1]) / dt_s
+                    omega = omega + slope * 0.5 * (dt_s - transfer)
+                ref = up_yaw[s][r, j] + omega * transfer
+                d = transfer * rate_sigma
+                v = up_var[s][r, j] + d * d + offset_var
+                update(state[r], ref, v, params, counts)
+                ref_yaw[r, k], ref_var[r, k] = ref, v
+            yaw[r, k] = yaw_of(state[r], params)
+            var[r, k] = var_of(state[r], params)
+            bias[r, k] = bias_of(state[r], params)
+
+
+@njit(cache=True)
+def sequential_sum(gyro, stop: int):
+    """Sum over the first ``stop`` ticks, added tick by tick (the static window's bias sum, same rounding)."""
+    R = gyro.shape[0]
+    out = gyro[:, 0] * 0.0
+    for k in range(stop):
+        for r in range(R):
+            out[r] += gyro[r, k]
+    return out

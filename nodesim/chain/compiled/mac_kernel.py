@@ -1,0 +1,155 @@
+"""Compiled stop-and-wait ARQ of one frame in one realization: :meth:`nodesim.chain.mac.Link.transfer` per lane.
+
+The same rules and the same floating-point operations as the batched numpy MAC (:mod:`nodesim.chain.mac`, whose
+docstring states the model): queue tail drop, start at max(t_ready, the radio's free time), per attempt the data
+draw against PER_data(t), a dead receiver, outages, the Gilbert-Elliott burst state, half duplex against the
+receiver's last exchange, the ACK draw against PER_ack(t), the attempt's duration and the duty-cycle off time,
+energy per radio.  Realizations are independent there (every state is per realization), so resolving a frame lane
+by lane gives the same numbers as resolving all lanes at once.
+
+Arrays (L links, G time steps, R realizations, radios = nodes + the surface station):
+``chan``  = (per_data (L, G, R), per_ack (L, G, R), rows (L,), step_s (L,), airtime_s (L,), ack_airtime_s (L,),
+            burst (L, 5): has, p_good_to_bad, p_bad_to_good, loss_good, loss_bad, outages (L, O, 2), n_outages (L,))
+``draws`` = (buffer (D,), start (L, R), available (L, R), position (L, R)): each lane's uniforms of a link, in
+            stream order, as :class:`nodesim.chain.links.LossDraws` hands them out
+``radio`` = (busy_start, busy_end, free_at (radios, R), queue_end (radios, R, Q), tx_s, rx_s (radios, R))
+``stats`` = (frames, delivered, attempts, dropped (L, R) int64, latency_sum_s (L, R), bad (L, R) bool)
+``mac``   = (enabled, max_retries, queue_length, turnaround_s, ack_timeout_s, duty_cycle) as float64
+A lane that runs out of buffered draws returns ``exhausted``: the caller buffers more and runs again from the start
+(draws come from the link's own stream, so a longer buffer changes nothing else).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+NO_RADIO = -1
+
+
+@njit(cache=True, inline='always')
+def _row(chan, link: int, t: float) -> int:
+    rows, step = chan[2][link], chan[3][link]
+    if rows == 1:
+        return 0
+    g = int(t / step)
+    return min(max(g, 0), rows - 1)
+
+
+@njit(cache=True, inline='always')
+def _in_outage(chan, link: int, t: float) -> bool:
+    out = chan[7]
+    for i in range(chan[8][link]):
+        if t >= out[link, i, 0] and t < out[link, i, 1]:
+            return True
+    return False
+
+
+@njit(cache=True, inline='always')
+def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: float, chan, draws, radio,
+             stats, mac):
+    """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, exhausted)."""
+    per_data, per_ack = chan[0], chan[1]
+    airtime, ack_airtime = chan[4][link], chan[5][link]
+    burst = chan[6]
+    has_burst = burst[link, 0] > 0.0
+    has_outages = chan[8][link] > 0
+    buf, d_start, d_avail, d_pos = draws
+    busy_start, busy_end, free_at, queue_end, tx_s, rx_s = radio
+    frames, delivered_n, attempts_n, dropped, latency_sum, bad = stats
+    enabled = mac[0] > 0.0
+    frames[link, r] += 1
+    sending = True
+    if enabled and tx != NO_RADIO:
+        held = 0
+        for q in range(queue_end.shape[2]):
+            if queue_end[tx, r, q] > t_ready:
+                held += 1
+        if held >= int(mac[2]):
+            dropped[link, r] += 1
+            sending = False
+        start = max(t_ready, free_at[tx, r])
+    else:
+        start = t_ready
+    attempts = 1 + int(mac[1]) if enabled else 1
+    per_attempt = (2 if enabled else 1) + (2 if has_burst else 0)
+    t = start
+    done = False
+    arrival = np.nan
+    n_att = 0
+    heard = 0
+    wait_sum = 0.0
+    alive_always = rx_dead_at_s == np.inf
+    half_duplex = enabled and rx != NO_RADIO
+    if sending:
+        for _ in range(attempts):
+            if done:
+                break
+            n_att += 1
+            p = d_pos[link, r]
+            if p + per_attempt > d_avail[link, r]:
+                return False, np.nan, np.nan, True
+            u0 = buf[d_start[link, r] + p]
+            u1 = buf[d_start[link, r] + p + 1] if per_attempt > 1 else 0.0
+            u_state = buf[d_start[link, r] + p + per_attempt - 2] if has_burst else 0.0
+            u_loss = buf[d_start[link, r] + p + per_attempt - 1] if has_burst else 0.0
+            d_pos[link, r] = p + per_attempt
+            g = _row(chan, link, t)
+            ok = u0 >= per_data[link, g, r]
+            if not alive_always:
+                alive = t < rx_dead_at_s
+                ok = ok and alive
+                if alive:
+                    heard += 1
+            if has_outages and _in_outage(chan, link, t):
+                ok = False
+            if has_burst:
+                if bad[link, r]:
+                    flip = u_state < burst[link, 2]
+                else:
+                    flip = u_state < burst[link, 1]
+                bad[link, r] = bad[link, r] ^ flip
+                if u_loss < (burst[link, 4] if bad[link, r] else burst[link, 3]):
+                    ok = False
+            if half_duplex and t < busy_end[rx, r] and t + airtime > busy_start[rx, r]:
+                ok = False
+            if ok and math.isnan(arrival):
+                arrival = t + airtime
+            if not enabled:
+                done = True
+                t = t + airtime
+                break
+            acked = ok and u1 >= per_ack[link, g, r]
+            if has_outages and _in_outage(chan, link, t):
+                acked = False
+            wait = (mac[3] + ack_airtime) if acked else mac[4]
+            wait_sum += wait
+            done = done or acked
+            t = max(t + airtime + wait, t + airtime / mac[5])
+    attempts_n[link, r] += n_att
+    if enabled:
+        if alive_always:
+            heard = n_att
+        if tx != NO_RADIO:
+            tx_s[tx, r] += n_att * airtime
+            rx_s[tx, r] += wait_sum
+        if rx != NO_RADIO:
+            tx_s[rx, r] += (ack_airtime if done else 0.0)
+            rx_s[rx, r] += heard * airtime
+    got = not math.isnan(arrival)
+    if got:
+        delivered_n[link, r] += 1
+        latency_sum[link, r] += arrival - t_ready
+    end = t if sending else np.nan
+    if enabled and tx != NO_RADIO and sending:
+        busy_start[tx, r] = start
+        busy_end[tx, r] = t
+        free_at[tx, r] = t
+        slot = 0
+        for q in range(1, queue_end.shape[2]):
+            if queue_end[tx, r, q] < queue_end[tx, r, slot]:
+                slot = q
+        queue_end[tx, r, slot] = t
+    return got, arrival, end, False
