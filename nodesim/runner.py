@@ -41,6 +41,7 @@ def run_scenario(
     summary["scenario"] = scenario.name
     summary["seed"] = scenario.seed
     summary["simpy_events"] = run.simpy_events
+    summary["engine"] = run.engine
     summary["nodes"] = len(run.nodes)
     summary["firmware_saturations"] = sum(sum(n.firmware_overflows.values()) for n in run.nodes)
 

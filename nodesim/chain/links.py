@@ -10,8 +10,29 @@ the block size.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
+
+
+class LazyStreams:
+    """One generator per realization, each built on first use (``make(r)``): a link that never transmits, such
+    as an up link of a run without surveys, costs no generator."""
+
+    def __init__(self, make: Callable[[int], np.random.Generator], realizations: int):
+        self._make = make
+        self._gens: list[np.random.Generator | None] = [None] * realizations
+
+    def __len__(self) -> int:
+        return len(self._gens)
+
+    def __getitem__(self, r: int) -> np.random.Generator:
+        if self._gens[r] is None:
+            self._gens[r] = self._make(r)
+        return self._gens[r]
+
+    def __iter__(self):
+        return (self[r] for r in range(len(self)))
 
 
 @dataclass
@@ -21,7 +42,7 @@ class LossDraws:
     A realization advances its own stream only when it transmits (``mask``), so its losses do not depend on
     what the other realizations did or on how many there are."""
 
-    generators: list[np.random.Generator]
+    generators: list[np.random.Generator] | LazyStreams
     block: int = 256
     _buffer: np.ndarray = field(default=None, init=False, repr=False)
     _next: np.ndarray = field(default=None, init=False, repr=False)

@@ -19,13 +19,14 @@ from typing import Callable
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import simpy
 
 from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
 from nodesim.chain import faults
-from nodesim.chain.links import LossDraws
+from nodesim.chain.links import LazyStreams, LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
 from nodesim.chain.motion import ChainMotion, build_motion
 from nodesim.chain.node import ChainNode
@@ -115,6 +116,7 @@ class ChainRun:
     up_links: tuple[Link, ...] = ()
     skip_links: tuple[Link, ...] = ()  # fallback links that carried frames
     radio_energy_j: np.ndarray | None = None  # (N, R) per node
+    engine: str = "event"  # which engine ran it: "event" (SimPy) or "compiled" (same numbers)
 
 
 class Network:
@@ -124,6 +126,7 @@ class Network:
         self.scenario = scenario
         self.env = simpy.Environment()
         self.events = 0
+        self.engine = "event"
         c = scenario.chain
         self.n_nodes = c.nodes
         self.dt_s = 1.0 / c.firmware_rate_hz
@@ -142,8 +145,9 @@ class Network:
         def link(channel, gens, h):
             return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h))
 
-        self.down_links = [link(self.hops[h], [streams.link(r, h) for r in range(R)], h) for h in range(c.nodes)]
-        self.up_links = [link(self.hops[h], [streams.link(r, c.nodes + h) for r in range(R)], h)
+        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link, link=h), R), h)
+                           for h in range(c.nodes)]
+        self.up_links = [link(self.hops[h], LazyStreams(partial(streams.link, link=c.nodes + h), R), h)
                          for h in range(c.nodes)]
         self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
         self.surface = RadioState(R, mac.queue_length)
@@ -167,7 +171,7 @@ class Network:
         """The fallback link from ``node_id`` to the node after its neighbour (built on first use; its draws
         come from its own streams, so when it is built does not matter)."""
         if node_id not in self._skip_links:
-            gens = [self._streams.skip_link(r, node_id) for r in range(self.R)]
+            gens = LazyStreams(partial(self._streams.skip_link, node=node_id), self.R)
             self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1)
         return self._skip_links[node_id]
 
@@ -229,6 +233,7 @@ class Network:
             up_links=tuple(self.up_links),
             skip_links=skips,
             radio_energy_j=np.stack([radio_energy_j(n.radio, self.scenario.mac) for n in self.nodes]),
+            engine=self.engine,
         )
 
 

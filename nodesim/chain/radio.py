@@ -161,9 +161,13 @@ def hop_channels(scenario: Scenario, streams: RunStreams, R: int) -> tuple[list[
         return [simple_channel(scenario, f"hop{h + 1}", R) for h in range(n)], [None] * n
     m = scenario.mac
     grid = _time_grid(scenario)
-    gens = [[streams.radio(r, h) for r in range(R)] for h in range(n)]
-    shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * scenario.radio.shadowing_sigma_db
-    skip_shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * scenario.radio.shadowing_sigma_db
+    sigma = scenario.radio.shadowing_sigma_db
+    if sigma > 0.0:
+        gens = [[streams.radio(r, h) for r in range(R)] for h in range(n)]
+        shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * sigma
+        skip_shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * sigma
+    else:  # no shadowing: zero draws (what sigma x N(0, 1) gives) without building the hops' generators
+        shadow = skip_shadow = np.zeros((n, R))
     geos = [hop_geometry(scenario, h) for h in range(n)]
     losses = [mean_path_loss_db(scenario, g, grid) for g in geos]
     hops = [_channel(scenario, f"hop{h + 1}", geos[h].kind, losses[h], shadow[h], m.frame_bits, m.ack_bits)

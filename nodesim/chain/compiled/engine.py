@@ -52,73 +52,96 @@ def choose_engine(scenario: Scenario) -> str:
 
 
 class _Links:
-    """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback)."""
+    """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback; built, with
+    its draws, only if phase 1 needs it), as realization-major arrays (:mod:`.mac_kernel`)."""
 
     def __init__(self, net):
         N, R = net.n_nodes, net.R
-        self.links = list(net.down_links) + [
-            net.skip_link(i + 1) if node.fallback.enabled else None for i, node in enumerate(net.nodes)]
-        live = [x for x in self.links if x is not None]
-        G = max(x.channel.per_data_table.shape[0] for x in live)
-        O = max([len(x.outages) for x in live] + [1])
-        L = len(self.links)
-        per_data, per_ack, margin = np.zeros((L, G, R)), np.zeros((L, G, R)), np.zeros((L, G, R))
+        self.net = net
+        self.links: list = list(net.down_links) + [None] * N
+        channels = [x.channel for x in net.down_links] + [
+            net._skips[i + 1] if node.fallback.enabled else None for i, node in enumerate(net.nodes)]
+        bursts = [x.burst for x in net.down_links] + [None] * N
+        outages = [x.outages for x in net.down_links] + [()] * N
+        live = [ch for ch in channels if ch is not None]
+        G = max(ch.per_data_table.shape[0] for ch in live)
+        O = max([len(o) for o in outages] + [1])
+        L = len(channels)
+        per_data, per_ack, margin = np.zeros((R, L, G)), np.zeros((R, L, G)), np.zeros((R, L, G))
         rows, step = np.ones(L, dtype=np.int64), np.ones(L)
         air, ack_air = np.zeros(L), np.zeros(L)
-        burst, outages, n_out = np.zeros((L, 5)), np.zeros((L, O, 2)), np.zeros(L, dtype=np.int64)
-        for i, x in enumerate(self.links):
-            if x is None:
+        burst, out, n_out = np.zeros((L, 5)), np.zeros((L, O, 2)), np.zeros(L, dtype=np.int64)
+        for i, ch in enumerate(channels):
+            if ch is None:
                 continue
-            ch = x.channel
             g = ch.per_data_table.shape[0]
-            per_data[i, :g], per_ack[i, :g] = ch.per_data_table, ch.per_ack_table
-            margin[i, :ch.margin_db.shape[0]] = ch.margin_db
+            per_data[:, i, :g], per_ack[:, i, :g] = ch.per_data_table.T, ch.per_ack_table.T
+            margin[:, i, :ch.margin_db.shape[0]] = ch.margin_db.T
             rows[i], step[i], air[i], ack_air[i] = g, ch.step_s, ch.airtime_s, ch.ack_airtime_s
-            if x.burst is not None:
-                b = x.burst
+            if bursts[i] is not None:
+                b = bursts[i]
                 burst[i] = (1.0, b.p_good_to_bad, b.p_bad_to_good, b.loss_good, b.loss_bad)
-            for j, (a, z) in enumerate(x.outages):
-                outages[i, j] = (a, z)
-            n_out[i] = len(x.outages)
-        self.chan = (per_data, per_ack, rows, step, air, ack_air, burst, outages, n_out)
+            for j, (a, z) in enumerate(outages[i]):
+                out[i, j] = (a, z)
+            n_out[i] = len(outages[i])
+        self.chan = (per_data, per_ack, rows, step, air, ack_air, burst, out, n_out)
         self.margin = margin
-        self.buffers = [[np.zeros(0) for _ in range(R)] for _ in range(L)]
+        self.sizes = np.zeros((R, L), dtype=np.int64)
         m = net.scenario.mac
         attempts = 1 + m.max_retries if m.enabled else 1
         for h in range(N):  # what a hop is expected to use, with headroom (more is drawn on demand)
-            x = self.links[h]
-            per_attempt = (2 if m.enabled else 1) + (2 if x.burst is not None else 0)
-            sender = net.nodes[max(h - 1, 0)]
-            frames = sender.sig.t_s.size * (2 if h == 0 else 1)
-            p_ok = float(np.mean((1.0 - x.channel.per_data_table) * (1.0 - x.channel.per_ack_table)))
+            ch = channels[h]
+            per_attempt = (2 if m.enabled else 1) + (2 if bursts[h] is not None else 0)
+            frames = net.nodes[max(h - 1, 0)].sig.t_s.size * (2 if h == 0 else 1)
+            p_ok = float(np.mean((1.0 - ch.per_data_table) * (1.0 - ch.per_ack_table)))
             mean_attempts = min(attempts, 1.2 / max(p_ok, 1.0 / attempts) + 0.05)
-            n = int(math.ceil(frames * per_attempt * mean_attempts)) + 64
-            for r in range(R):
-                self.buffers[h][r] = x.draws.generators[r].random(n)
+            self.sizes[:, h] = int(math.ceil(frames * per_attempt * mean_attempts)) + 64
+        self.buffer = np.empty(0)
+        self.start = np.zeros((R, L), dtype=np.int64)
+        self._fill(np.zeros((R, L), dtype=np.int64))
 
-    def more(self, link: int, r: int) -> None:
+    def link(self, i: int):
+        """Link ``i``'s object (a skip link is built on first use, as the SimPy engine does)."""
+        if self.links[i] is None:
+            self.links[i] = self.net.skip_link(i - self.net.n_nodes + 1)
+        return self.links[i]
+
+    def _fill(self, kept: np.ndarray) -> None:
+        """One flat buffer, realization by realization, link by link: the ``kept`` draws of each lane already
+        buffered, then the continuation of its stream up to ``sizes``."""
+        R, L = self.sizes.shape
+        start = np.zeros(R * L, dtype=np.int64)
+        start[1:] = np.cumsum(self.sizes.ravel())[:-1]
+        start = start.reshape(R, L)
+        buf = np.empty(int(self.sizes.sum()))
+        for r in range(R):
+            for i in range(L):
+                a, n, k = start[r, i], self.sizes[r, i], kept[r, i]
+                if k:
+                    buf[a:a + k] = self.buffer[self.start[r, i]:self.start[r, i] + k]
+                if n > k:
+                    self.link(i).draws.generators[r].random(out=buf[a + k:a + n])
+        self.buffer, self.start = buf, start
+
+    def more(self, i: int, r: int) -> None:
         """Twice the buffered draws of one lane (the continuation of its stream)."""
-        old = self.buffers[link][r]
-        gen = self.links[link].draws.generators[r]
-        self.buffers[link][r] = np.concatenate([old, gen.random(max(256, old.size))])
+        kept = self.sizes.copy()
+        self.sizes[r, i] = max(256, 2 * self.sizes[r, i])
+        self._fill(kept)
 
     def draws(self) -> tuple:
-        L, R = len(self.links), len(self.buffers[0])
-        sizes = np.array([[b.size for b in row] for row in self.buffers], dtype=np.int64).reshape(L, R)
-        start = np.zeros(L * R, dtype=np.int64)
-        start[1:] = np.cumsum(sizes.ravel())[:-1]
-        flat = np.concatenate([b for row in self.buffers for b in row]) if sizes.sum() else np.zeros(1)
-        return flat, start.reshape(L, R), sizes, np.zeros((L, R), dtype=np.int64)
+        return self.buffer, self.start, self.sizes, np.zeros_like(self.sizes)
 
     def store(self, stats: tuple) -> None:
         frames, delivered, attempts, dropped, latency, _ = stats
-        for i, x in enumerate(self.links):
-            if x is None:
-                continue
-            x.stats = LinkStats(frames.shape[1])
-            x.stats.frames, x.stats.delivered = frames[i].copy(), delivered[i].copy()
-            x.stats.attempts, x.stats.dropped = attempts[i].copy(), dropped[i].copy()
-            x.stats.latency_sum_s = latency[i].copy()
+        for i in range(len(self.links)):
+            if self.links[i] is None and not frames[:, i].any():
+                continue  # a skip link that never carried a frame (the SimPy engine does not build it either)
+            x = self.link(i)
+            x.stats = LinkStats(frames.shape[0])
+            x.stats.frames, x.stats.delivered = frames[:, i].copy(), delivered[:, i].copy()
+            x.stats.attempts, x.stats.dropped = attempts[:, i].copy(), dropped[:, i].copy()
+            x.stats.latency_sum_s = latency[:, i].copy()
 
 
 def _resolve(net, links: _Links):
@@ -127,11 +150,12 @@ def _resolve(net, links: _Links):
     c, m = net.scenario.chain, net.scenario.mac
     K = np.array([n.sig.t_s.size for n in net.nodes], dtype=np.int64)
     Kmax = int(K.max())
-    T = np.full((N, Kmax), np.inf)
+    T = np.full((Kmax, N), np.inf)  # tick-major: events in time order touch neighbouring memory
     for i, node in enumerate(net.nodes):
-        T[i, :K[i]] = node.sig.t_s
+        T[:K[i], i] = node.sig.t_s
     dead_at = np.array([n.dead_at_s for n in net.nodes], dtype=float)
     filter_start = np.array([n.timeline.filter_start_s for n in net.nodes], dtype=float)
+    order = ev.event_order(T, K, dead_at)
     scheduled = np.zeros(Kmax, dtype=bool)
     scheduled[:K[0]] = net.nodes[0].scheduled
     fb = net.scenario.faults
@@ -140,24 +164,23 @@ def _resolve(net, links: _Links):
     nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick)
     mac = np.array([float(m.enabled), m.max_retries, m.queue_length, m.turnaround_s, m.ack_timeout_s, m.duty_cycle])
     slots = INBOX_SLOTS
+    L, radios = len(links.links), N + 1
     while True:
-        L = len(links.links)
-        radios = N + 1
-        radio = (np.full((radios, R), -np.inf), np.full((radios, R), -np.inf), np.full((radios, R), -np.inf),
-                 np.full((radios, R, m.queue_length), -np.inf), np.zeros((radios, R)), np.zeros((radios, R)))
-        stats = (np.zeros((L, R), np.int64), np.zeros((L, R), np.int64), np.zeros((L, R), np.int64),
-                 np.zeros((L, R), np.int64), np.zeros((L, R)), np.zeros((L, R), dtype=bool))
-        inbox = (np.zeros((N, R, slots), np.int64), np.zeros((N, R, slots), np.int64),
-                 np.zeros((N, R, slots), np.int64), np.zeros((N, R, slots)), np.zeros((N, R), np.int64))
-        out = (np.zeros((N, Kmax), dtype=bool), np.zeros((N, Kmax, R), dtype=bool), np.full((N, Kmax, R), np.nan),
-               np.full((N, Kmax, R), -1, np.int64), np.full((N, Kmax, R), -1, np.int64), np.full((Kmax, R), np.nan),
-               np.zeros((N, R), np.int64), np.zeros((N, R), np.int64), np.zeros(1, np.int64))
+        radio = (np.full((R, radios), -np.inf), np.full((R, radios), -np.inf), np.full((R, radios), -np.inf),
+                 np.full((R, radios, m.queue_length), -np.inf), np.zeros((R, radios)), np.zeros((R, radios)))
+        stats = (np.zeros((R, L), np.int64), np.zeros((R, L), np.int64), np.zeros((R, L), np.int64),
+                 np.zeros((R, L), np.int64), np.zeros((R, L)), np.zeros((R, L), dtype=bool))
+        inbox = (np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots), np.int64),
+                 np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots)), np.zeros((R, N), np.int64))
+        out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, Kmax, N), dtype=bool), np.full((R, Kmax, N), np.nan),
+               np.full((R, Kmax, N), -1, np.int64), np.full((R, Kmax, N), -1, np.int64), np.full((R, Kmax), np.nan),
+               np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
         need = np.zeros(2, np.int64)
-        status = ev.run_events(T, K, dead_at, filter_start, scheduled, nodes_cfg, fallback, links.chan, links.margin,
-                               links.draws(), radio, stats, mac, inbox, np.full((N, R), -1, np.int64),
-                               np.zeros((N, R), np.int64), out, need)
+        status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
+                               links.margin, links.draws(), radio, stats, mac, inbox, np.full((R, N), -1, np.int64),
+                               np.zeros((R, N), np.int64), out, need)
         if status == ev.DONE:
-            return T, out, radio, stats
+            return order[0].size, out, radio, stats
         if status == ev.NEED_DRAWS:
             links.more(int(need[0]), int(need[1]))
         else:
@@ -172,20 +195,20 @@ def _kernels(scenario: Scenario):
     return k, (k.predict, k.update, k.yaw_rad, k.bias_rad_s, k.yaw_variance_rad2)
 
 
-def _run_node(net, n: int, T, out) -> None:
+def _run_node(net, n: int, out) -> None:
     """Phase 2 for node index ``n`` (module docstring); writes the node's records."""
     from nodesim.chain.estimator import new_filter
 
     node, sig = net.nodes[n], net.nodes[n].sig
-    running, applied, age, src_node, src_tick, enc_t_read, stale, dup, _ = out
+    running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
     t, R = sig.t_s, net.R
     K = t.size
     k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
     n_static = int(np.searchsorted(t[:k_end], node.timeline.filter_start_s, side="left"))
-    node.running[:] = running[n, :K]
-    node.applied[:] = applied[n, :K].T
-    node.age[:] = age[n, :K].T
-    node.stale, node.duplicate = stale[n].copy(), dup[n].copy()
+    node.running[:] = running[:K, n]
+    node.applied[:] = applied[:, :K, n]
+    node.age[:] = age[:, :K, n]
+    node.stale, node.duplicate = stale[:, n].copy(), dup[:, n].copy()
     if n_static:
         node.yaw[:, :n_static] = net.encoder.read_many(t[:n_static])[0]
     if n_static >= k_end:
@@ -196,17 +219,17 @@ def _run_node(net, n: int, T, out) -> None:
     module, kernels = _kernels(net.scenario)
     state, params = module.lane_states(node.kf), module.kernel_params(node.kf)
     counts = np.zeros(len(getattr(module, "SITES", (None,))), dtype=np.int64)
-    enc_ref = np.zeros((K, R))
+    enc_ref = np.zeros((R, K))
     if n == 0:
-        t_read = np.where(np.isnan(enc_t_read[:K]), t[:, None], enc_t_read[:K])
+        t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
         yaw_enc, rate_enc = net.encoder.read_many(t_read)
-        enc_ref = yaw_enc - rate_enc * (t_read - t[:, None])
-    src = src_node[n, :K]
+        enc_ref = yaw_enc - rate_enc * (t_read - t)
+    src = src_node[:, :K, n]
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     c = net.scenario.chain
     filters.run_node(kernels, state, params, counts, sig.gyro_rad_s, t, n_static + 1, k_end, n == 0,
-                     node.scheduled, enc_ref, net.encoder.variance_rad2, applied[n, :K], offset, src_tick[n, :K],
+                     node.scheduled, enc_ref, net.encoder.variance_rad2, node.applied, offset, np.ascontiguousarray(src_tick[:, :K, n]),
                      tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above),
                      net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                      node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var)
@@ -218,14 +241,14 @@ def _run_node(net, n: int, T, out) -> None:
 def simulate_compiled(net, progress: Callable[[float], None] | None = None):
     """Run the built network ``net`` on the compiled engine (module docstring) and return its ChainRun."""
     links = _Links(net)
-    T, out, radio, stats = _resolve(net, links)
-    net.events = int(out[-1][0])
+    net.events, out, radio, stats = _resolve(net, links)
+    net.engine = "compiled"
     links.store(stats)
     for i, node in enumerate(net.nodes):
-        node.radio.tx_s, node.radio.rx_s = radio[4][i].copy(), radio[5][i].copy()
-    net.surface.tx_s, net.surface.rx_s = radio[4][-1].copy(), radio[5][-1].copy()
+        node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
+    net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()
     for n in range(net.n_nodes):
-        _run_node(net, n, T, out)
+        _run_node(net, n, out)
         if progress is not None:
             progress((n + 1) / net.n_nodes)
     return net.result()

@@ -19,6 +19,9 @@ node 1 is the top node):
   * then a node that is not the bottom one transmits in the realizations that applied an update (or in all of
     them with ``chain.forward = "every_tick"``), with the fallback to the next-but-one node.
 Sequence numbers are the event counter: they increase with send time, which is all the selection compares.
+The order of the events is the same in every realization (:func:`event_order`, once), and realizations share
+no state, so :func:`run_events` runs them one after the other over that order, each with its state together in
+memory (arrays are realization-major).
 Status codes: 0 done; 1 a lane ran out of buffered draws (``need`` = link, realization); 2 an inbox is full.
 """
 
@@ -74,39 +77,39 @@ def _pop(h_t, h_e, h_n, size):
 
 
 @njit(cache=True, inline='always')
-def _deliver(inbox, receiver, r, seq, sender, tick, arrival) -> bool:
+def _deliver(inbox, r, receiver, seq, sender, tick, arrival) -> bool:
     i_seq, i_src, i_tick, i_arr, i_count = inbox
-    c = i_count[receiver, r]
+    c = i_count[r, receiver]
     if c == i_seq.shape[2]:
         return False
-    i_seq[receiver, r, c], i_src[receiver, r, c], i_tick[receiver, r, c] = seq, sender, tick
-    i_arr[receiver, r, c] = arrival
-    i_count[receiver, r] = c + 1
+    i_seq[r, receiver, c], i_src[r, receiver, c], i_tick[r, receiver, c] = seq, sender, tick
+    i_arr[r, receiver, c] = arrival
+    i_count[r, receiver] = c + 1
     return True
 
 
 @njit(cache=True, inline='always')
-def _swap(inbox, n, r, i, j) -> None:
+def _swap(inbox, r, n, i, j) -> None:
     i_seq, i_src, i_tick, i_arr, _ = inbox
-    i_seq[n, r, i], i_seq[n, r, j] = i_seq[n, r, j], i_seq[n, r, i]
-    i_src[n, r, i], i_src[n, r, j] = i_src[n, r, j], i_src[n, r, i]
-    i_tick[n, r, i], i_tick[n, r, j] = i_tick[n, r, j], i_tick[n, r, i]
-    i_arr[n, r, i], i_arr[n, r, j] = i_arr[n, r, j], i_arr[n, r, i]
+    i_seq[r, n, i], i_seq[r, n, j] = i_seq[r, n, j], i_seq[r, n, i]
+    i_src[r, n, i], i_src[r, n, j] = i_src[r, n, j], i_src[r, n, i]
+    i_tick[r, n, i], i_tick[r, n, j] = i_tick[r, n, j], i_tick[r, n, i]
+    i_arr[r, n, i], i_arr[r, n, j] = i_arr[r, n, j], i_arr[r, n, i]
 
 
 @njit(cache=True, inline='always')
-def _select(n, k, r, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age) -> bool:
+def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
     True if a fresh packet was taken."""
     i_seq, i_src, i_tick, i_arr, i_count = inbox
-    c = i_count[n, r]
+    c = i_count[r, n]
     m = 0
     for i in range(c):  # the arrived ones to the front, newest first (insertion sort; an inbox holds a few)
-        if i_arr[n, r, i] <= t:
-            _swap(inbox, n, r, i, m)
+        if i_arr[r, n, i] <= t:
+            _swap(inbox, r, n, i, m)
             j = m
-            while j > 0 and i_seq[n, r, j] > i_seq[n, r, j - 1]:
-                _swap(inbox, n, r, j, j - 1)
+            while j > 0 and i_seq[r, n, j] > i_seq[r, n, j - 1]:
+                _swap(inbox, r, n, j, j - 1)
                 j -= 1
             m += 1
     if m == 0:
@@ -114,118 +117,130 @@ def _select(n, k, r, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src
     have = False
     seq_taken = -1
     for j in range(m):
-        newer = i_seq[n, r, j] > last_seq[n, r]
+        newer = i_seq[r, n, j] > last_seq[r, n]
         if not newer:
-            dup[n, r] += 1
-        t_read = T[i_src[n, r, j], i_tick[n, r, j]]
+            dup[r, n] += 1
+        t_read = T[i_tick[r, n, j], i_src[r, n, j]]
         if t - t_read > max_age_s:
             if newer and not have:
-                stale[n, r] += 1
+                stale[r, n] += 1
             continue
         if newer and not have:
             have = True
-            seq_taken = i_seq[n, r, j]
-            src_node[n, k, r], src_tick[n, k, r] = i_src[n, r, j], i_tick[n, r, j]
-            age[n, k, r] = t - t_read
+            seq_taken = i_seq[r, n, j]
+            src_node[r, k, n], src_tick[r, k, n] = i_src[r, n, j], i_tick[r, n, j]
+            age[r, k, n] = t - t_read
     if have:
-        last_seq[n, r] = seq_taken
+        last_seq[r, n] = seq_taken
     for i in range(m, c):  # drop the arrived packets
-        _swap(inbox, n, r, i - m, i)
-    i_count[n, r] = c - m
+        _swap(inbox, r, n, i - m, i)
+    i_count[r, n] = c - m
     return have
 
 
 @njit(cache=True)
-def run_events(T, K, dead_at, filter_start, scheduled, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac,
-               inbox, last_seq, streak, out, need):
-    """Run every tick (module docstring).  ``nodes_cfg`` = (processing_s, max_age_s, every_tick);
-    ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures, min_margin_db);
-    ``out`` = (running (N, K), applied (N, K, R), age, src_node, src_tick (N, K, R), encoder t_read (K, R),
-    stale (N, R), duplicate (N, R), events (1,)).  Returns a status code."""
-    N, R = T.shape[0], last_seq.shape[1]
-    processing_s, max_age_s, every_tick = nodes_cfg
-    fb_on, fb_link, fb_after, fb_min_margin = fallback
-    running, applied, age, src_node, src_tick, enc_t_read, stale, dup, events = out
-    surface = N
-    h_t, h_e, h_n = np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64)
-    size, eid = 0, 0
-    next_k = np.zeros(N, dtype=np.int64)
-    started = np.zeros(N, dtype=np.bool_)
-    ready = np.empty(R)
-    valid = np.empty(R, dtype=np.bool_)
+def event_order(T, K, dead_at):
+    """(node, tick) of every event in SimPy's order (module docstring)."""
+    N = T.shape[1]
+    total = 0
     for n in range(N):
-        if K[n] > 0 and T[n, 0] < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, 0.0 + (T[n, 0] - 0.0), eid, n)
+        for k in range(K[n]):
+            if T[k, n] < dead_at[n]:
+                total += 1
+    nodes, ticks = np.empty(total, dtype=np.int64), np.empty(total, dtype=np.int64)
+    h_t, h_e, h_n = np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64)
+    size, eid, e = 0, 0, 0
+    next_k = np.zeros(N, dtype=np.int64)
+    for n in range(N):
+        if K[n] > 0 and T[0, n] < dead_at[n]:
+            size = _push(h_t, h_e, h_n, size, 0.0 + (T[0, n] - 0.0), eid, n)
             eid += 1
     while size > 0:
         now, n, size = _pop(h_t, h_e, h_n, size)
         k = next_k[n]
-        t = T[n, k]
-        events[0] += 1
-        seq = events[0]
-        if t >= filter_start[n]:
-            if not started[n]:
-                started[n] = True
-            else:
-                running[n, k] = True
-                for r in range(R):
-                    ready[r] = t
-                    valid[r] = every_tick
-                if n == 0:
-                    if scheduled[k]:
-                        for r in range(R):
-                            got, arr, end, short = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac)
-                            if short:
-                                need[0], need[1] = 0, r
-                                return NEED_DRAWS
-                            t_read = arr if got else t
-                            enc_t_read[k, r] = t_read
-                            if got:
-                                have, arr2, end2, short = transfer(0, r, end, surface, n, np.inf, chan, draws, radio,
-                                                                   stats, mac)
-                                if short:
-                                    need[0], need[1] = 0, r
-                                    return NEED_DRAWS
-                                if have:
-                                    applied[n, k, r] = True
-                                    age[n, k, r] = arr2 - t_read
-                                    ready[r] = arr2
-                                    valid[r] = True
-                else:
-                    for r in range(R):
-                        if _select(n, k, r, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age):
-                            applied[n, k, r] = True
-                            valid[r] = True
-                if n < N - 1:
-                    for r in range(R):
-                        if not valid[r]:
-                            continue
-                        got, arr, end, short = transfer(n + 1, r, ready[r] + processing_s, n, n + 1, dead_at[n + 1],
-                                                        chan, draws, radio, stats, mac)
-                        if short:
-                            need[0], need[1] = n + 1, r
-                            return NEED_DRAWS
-                        if got and not _deliver(inbox, n + 1, r, seq, n, k, arr):
-                            return INBOX_FULL
-                        if not fb_on[n]:
-                            continue
-                        if got:
-                            streak[n, r] = 0
-                            continue
-                        streak[n, r] += 1
-                        link = fb_link[n]
-                        g = min(int(t / chan[3][link]), chan[2][link] - 1)
-                        if streak[n, r] > fb_after and margin[link, g, r] >= fb_min_margin:
-                            got, arr, end, short = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws,
-                                                            radio, stats, mac)
-                            if short:
-                                need[0], need[1] = link, r
-                                return NEED_DRAWS
-                            if got and not _deliver(inbox, n + 2, r, seq, n, k, arr):
-                                return INBOX_FULL
+        nodes[e], ticks[e] = n, k
+        e += 1
         k += 1
         next_k[n] = k
-        if k < K[n] and T[n, k] < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, now + (T[n, k] - now), eid, n)
+        if k < K[n] and T[k, n] < dead_at[n]:
+            size = _push(h_t, h_e, h_n, size, now + (T[k, n] - now), eid, n)
             eid += 1
+    return nodes, ticks
+
+
+@njit(cache=True)
+def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, chan, margin, draws, radio, stats,
+               mac, inbox, last_seq, streak, out, need):
+    """Run every event of ``order`` (from :func:`event_order`) in every realization (module docstring).
+    ``nodes_cfg`` = (processing_s, max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,)
+    int, after_failures, min_margin_db); ``out`` = (running (K, N), applied (R, K, N), age, src_node, src_tick
+    (R, K, N), encoder t_read (R, K), stale (R, N), duplicate (R, N)).  Returns a status code."""
+    N, R = T.shape[1], last_seq.shape[0]
+    ev_node, ev_tick = order
+    processing_s, max_age_s, every_tick = nodes_cfg
+    fb_on, fb_link, fb_after, fb_min_margin = fallback
+    running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
+    surface = N
+    started = np.zeros(N, dtype=np.bool_)
+    for r in range(R):
+        started[:] = False
+        for e in range(ev_node.shape[0]):
+            n, k = ev_node[e], ev_tick[e]
+            t = T[k, n]
+            seq = e + 1
+            if t < filter_start[n]:
+                continue
+            if not started[n]:
+                started[n] = True
+                continue
+            running[k, n] = True
+            ready = t
+            valid = every_tick
+            if n == 0:
+                if scheduled[k]:
+                    got, arr, end, short = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac)
+                    if short:
+                        need[0], need[1] = 0, r
+                        return NEED_DRAWS
+                    t_read = arr if got else t
+                    enc_t_read[r, k] = t_read
+                    if got:
+                        have, arr2, end2, short = transfer(0, r, end, surface, n, np.inf, chan, draws, radio, stats,
+                                                           mac)
+                        if short:
+                            need[0], need[1] = 0, r
+                            return NEED_DRAWS
+                        if have:
+                            applied[r, k, n] = True
+                            age[r, k, n] = arr2 - t_read
+                            ready = arr2
+                            valid = True
+            elif _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age):
+                applied[r, k, n] = True
+                valid = True
+            if n == N - 1 or not valid:
+                continue
+            got, arr, end, short = transfer(n + 1, r, ready + processing_s, n, n + 1, dead_at[n + 1], chan, draws,
+                                            radio, stats, mac)
+            if short:
+                need[0], need[1] = n + 1, r
+                return NEED_DRAWS
+            if got and not _deliver(inbox, r, n + 1, seq, n, k, arr):
+                return INBOX_FULL
+            if not fb_on[n]:
+                continue
+            if got:
+                streak[r, n] = 0
+                continue
+            streak[r, n] += 1
+            link = fb_link[n]
+            g = min(int(t / chan[3][link]), chan[2][link] - 1)
+            if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
+                got, arr, end, short = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio, stats,
+                                                mac)
+                if short:
+                    need[0], need[1] = link, r
+                    return NEED_DRAWS
+                if got and not _deliver(inbox, r, n + 2, seq, n, k, arr):
+                    return INBOX_FULL
     return DONE

@@ -24,32 +24,32 @@ def run_node(kernels, state, params, counts, gyro, t, k_first, k_end, is_top, sc
              applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
              yaw, var, bias, ref_yaw, ref_var) -> None:
     """Ticks ``k_first`` .. ``k_end - 1`` of one node (module docstring); ``up_*`` = (node above, node two
-    above) tick times and records; ``src_node`` holds 1 or 2 (how far up the reference came from), -1 for none."""
+    above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference came from), -1 for none."""
     predict, update, yaw_of, bias_of, var_of = kernels
     R = state.shape[0]
-    for k in range(k_first, k_end):
-        tk = t[k]
-        for r in range(R):
-            predict(state[r], gyro[r, k], params, counts)
+    for r in range(R):  # realizations are independent: one after the other, each over its ticks
+        st = state[r]
+        for k in range(k_first, k_end):
+            predict(st, gyro[r, k], params, counts)
             if is_top:
-                if scheduled[k] and applied[k, r]:
-                    update(state[r], enc_ref[k, r], enc_var, params, counts)
-                    ref_yaw[r, k], ref_var[r, k] = enc_ref[k, r], enc_var
-            elif src_node[k, r] > 0:
-                s, j = src_node[k, r] - 1, src_tick[k, r]
-                transfer = tk - up_t[s][j]
-                omega = gyro[r, k] - bias_of(state[r], params)
+                if scheduled[k] and applied[r, k]:
+                    update(st, enc_ref[r, k], enc_var, params, counts)
+                    ref_yaw[r, k], ref_var[r, k] = enc_ref[r, k], enc_var
+            elif src_node[r, k] > 0:
+                s, j = src_node[r, k] - 1, src_tick[r, k]
+                transfer = t[k] - up_t[s][j]
+                omega = gyro[r, k] - bias_of(st, params)
                 if extrapolate and k > 0:
                     slope = (gyro[r, k] - gyro[r, k - 1]) / dt_s
                     omega = omega + slope * 0.5 * (dt_s - transfer)
                 ref = up_yaw[s][r, j] + omega * transfer
                 d = transfer * rate_sigma
                 v = up_var[s][r, j] + d * d + offset_var
-                update(state[r], ref, v, params, counts)
+                update(st, ref, v, params, counts)
                 ref_yaw[r, k], ref_var[r, k] = ref, v
-            yaw[r, k] = yaw_of(state[r], params)
-            var[r, k] = var_of(state[r], params)
-            bias[r, k] = bias_of(state[r], params)
+            yaw[r, k] = yaw_of(st, params)
+            var[r, k] = var_of(st, params)
+            bias[r, k] = bias_of(st, params)
 
 
 @njit(cache=True)

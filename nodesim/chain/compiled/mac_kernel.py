@@ -7,13 +7,14 @@ receiver's last exchange, the ACK draw against PER_ack(t), the attempt's duratio
 energy per radio.  Realizations are independent there (every state is per realization), so resolving a frame lane
 by lane gives the same numbers as resolving all lanes at once.
 
-Arrays (L links, G time steps, R realizations, radios = nodes + the surface station):
-``chan``  = (per_data (L, G, R), per_ack (L, G, R), rows (L,), step_s (L,), airtime_s (L,), ack_airtime_s (L,),
+Arrays, realization-major so that one realization's state stays together in the cache (L links, G time
+steps, R realizations, radios = nodes + the surface station):
+``chan``  = (per_data (R, L, G), per_ack (R, L, G), rows (L,), step_s (L,), airtime_s (L,), ack_airtime_s (L,),
             burst (L, 5): has, p_good_to_bad, p_bad_to_good, loss_good, loss_bad, outages (L, O, 2), n_outages (L,))
-``draws`` = (buffer (D,), start (L, R), available (L, R), position (L, R)): each lane's uniforms of a link, in
+``draws`` = (buffer (D,), start (R, L), available (R, L), position (R, L)): each lane's uniforms of a link, in
             stream order, as :class:`nodesim.chain.links.LossDraws` hands them out
-``radio`` = (busy_start, busy_end, free_at (radios, R), queue_end (radios, R, Q), tx_s, rx_s (radios, R))
-``stats`` = (frames, delivered, attempts, dropped (L, R) int64, latency_sum_s (L, R), bad (L, R) bool)
+``radio`` = (busy_start, busy_end, free_at (R, radios), queue_end (R, radios, Q), tx_s, rx_s (R, radios))
+``stats`` = (frames, delivered, attempts, dropped (R, L) int64, latency_sum_s (R, L), bad (R, L) bool)
 ``mac``   = (enabled, max_retries, queue_length, turnaround_s, ack_timeout_s, duty_cycle) as float64
 A lane that runs out of buffered draws returns ``exhausted``: the caller buffers more and runs again from the start
 (draws come from the link's own stream, so a longer buffer changes nothing else).
@@ -60,17 +61,17 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
     busy_start, busy_end, free_at, queue_end, tx_s, rx_s = radio
     frames, delivered_n, attempts_n, dropped, latency_sum, bad = stats
     enabled = mac[0] > 0.0
-    frames[link, r] += 1
+    frames[r, link] += 1
     sending = True
     if enabled and tx != NO_RADIO:
         held = 0
         for q in range(queue_end.shape[2]):
-            if queue_end[tx, r, q] > t_ready:
+            if queue_end[r, tx, q] > t_ready:
                 held += 1
         if held >= int(mac[2]):
-            dropped[link, r] += 1
+            dropped[r, link] += 1
             sending = False
-        start = max(t_ready, free_at[tx, r])
+        start = max(t_ready, free_at[r, tx])
     else:
         start = t_ready
     attempts = 1 + int(mac[1]) if enabled else 1
@@ -88,16 +89,16 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             if done:
                 break
             n_att += 1
-            p = d_pos[link, r]
-            if p + per_attempt > d_avail[link, r]:
+            p = d_pos[r, link]
+            if p + per_attempt > d_avail[r, link]:
                 return False, np.nan, np.nan, True
-            u0 = buf[d_start[link, r] + p]
-            u1 = buf[d_start[link, r] + p + 1] if per_attempt > 1 else 0.0
-            u_state = buf[d_start[link, r] + p + per_attempt - 2] if has_burst else 0.0
-            u_loss = buf[d_start[link, r] + p + per_attempt - 1] if has_burst else 0.0
-            d_pos[link, r] = p + per_attempt
+            u0 = buf[d_start[r, link] + p]
+            u1 = buf[d_start[r, link] + p + 1] if per_attempt > 1 else 0.0
+            u_state = buf[d_start[r, link] + p + per_attempt - 2] if has_burst else 0.0
+            u_loss = buf[d_start[r, link] + p + per_attempt - 1] if has_burst else 0.0
+            d_pos[r, link] = p + per_attempt
             g = _row(chan, link, t)
-            ok = u0 >= per_data[link, g, r]
+            ok = u0 >= per_data[r, link, g]
             if not alive_always:
                 alive = t < rx_dead_at_s
                 ok = ok and alive
@@ -106,14 +107,14 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             if has_outages and _in_outage(chan, link, t):
                 ok = False
             if has_burst:
-                if bad[link, r]:
+                if bad[r, link]:
                     flip = u_state < burst[link, 2]
                 else:
                     flip = u_state < burst[link, 1]
-                bad[link, r] = bad[link, r] ^ flip
-                if u_loss < (burst[link, 4] if bad[link, r] else burst[link, 3]):
+                bad[r, link] = bad[r, link] ^ flip
+                if u_loss < (burst[link, 4] if bad[r, link] else burst[link, 3]):
                     ok = False
-            if half_duplex and t < busy_end[rx, r] and t + airtime > busy_start[rx, r]:
+            if half_duplex and t < busy_end[r, rx] and t + airtime > busy_start[r, rx]:
                 ok = False
             if ok and math.isnan(arrival):
                 arrival = t + airtime
@@ -121,35 +122,35 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
                 done = True
                 t = t + airtime
                 break
-            acked = ok and u1 >= per_ack[link, g, r]
+            acked = ok and u1 >= per_ack[r, link, g]
             if has_outages and _in_outage(chan, link, t):
                 acked = False
             wait = (mac[3] + ack_airtime) if acked else mac[4]
             wait_sum += wait
             done = done or acked
             t = max(t + airtime + wait, t + airtime / mac[5])
-    attempts_n[link, r] += n_att
+    attempts_n[r, link] += n_att
     if enabled:
         if alive_always:
             heard = n_att
         if tx != NO_RADIO:
-            tx_s[tx, r] += n_att * airtime
-            rx_s[tx, r] += wait_sum
+            tx_s[r, tx] += n_att * airtime
+            rx_s[r, tx] += wait_sum
         if rx != NO_RADIO:
-            tx_s[rx, r] += (ack_airtime if done else 0.0)
-            rx_s[rx, r] += heard * airtime
+            tx_s[r, rx] += (ack_airtime if done else 0.0)
+            rx_s[r, rx] += heard * airtime
     got = not math.isnan(arrival)
     if got:
-        delivered_n[link, r] += 1
-        latency_sum[link, r] += arrival - t_ready
+        delivered_n[r, link] += 1
+        latency_sum[r, link] += arrival - t_ready
     end = t if sending else np.nan
     if enabled and tx != NO_RADIO and sending:
-        busy_start[tx, r] = start
-        busy_end[tx, r] = t
-        free_at[tx, r] = t
+        busy_start[r, tx] = start
+        busy_end[r, tx] = t
+        free_at[r, tx] = t
         slot = 0
         for q in range(1, queue_end.shape[2]):
-            if queue_end[tx, r, q] < queue_end[tx, r, slot]:
+            if queue_end[r, tx, q] < queue_end[r, tx, slot]:
                 slot = q
-        queue_end[tx, r, slot] = t
+        queue_end[r, tx, slot] = t
     return got, arrival, end, False
