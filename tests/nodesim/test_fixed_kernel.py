@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.fixed_filter import FixedFormats, FixedYawFilter
+from firmware_model.fixed_filter import TURN_RAD, FixedFormats, FixedYawFilter
 from firmware_model.fixedpoint import Fx, Overflow, QFormat, Rounding
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
 from nodesim.chain.compiled import fixed_kernel as fk
@@ -167,6 +167,7 @@ MUTATIONS = {
     "floor instead of half even on a right shift": (HALF_EVEN_SHIFT, "x = x >> s"),
     "floor instead of rint in from_float": ("y = np.rint(math.ldexp(v, f))", "y = np.floor(math.ldexp(v, f))"),
     "saturation not counted": ("counts[site] += 1", "counts[site] += 0"),
+    "half up instead of half even on a right shift": (HALF_EVEN_SHIFT, "x = (x + (np.int64(1) << (s - 1))) >> s"),
 }
 
 
@@ -195,6 +196,33 @@ def test_a_wrong_primitive_in_a_copy_is_caught(mutation):
         return
     with pytest.raises(AssertionError):
         mutant_sweep(mod)
+
+
+def test_from_float_ties_round_to_even():
+    """References exactly halfway between two binary-angle LSBs (odd and even neighbours) round to even."""
+    refs = [r for r in ((k + 0.5) * 2.0**-32 * TURN_RAD for k in range(1, 400)) if (r / TURN_RAD) * 2.0**32 % 1 == 0.5]
+    parity = {math.floor((r / TURN_RAD) * 2.0**32) % 2 for r in refs}
+    assert len(refs) >= 20 and parity == {0, 1}
+    for r in refs:
+        kf, before = build(32, 1)
+        lanes = Lanes(kf)
+        kf.update(np.array([r]), np.array([1e-6]))
+        lanes.update([r], [1e-6])
+        assert_same(kf, before, lanes, f"ref {r!r}")
+
+
+@pytest.mark.parametrize("p_yy, saturates", [(0, True), (-5, True), (-(1 << 31), False)])
+def test_zero_and_negative_divisors(p_yy, saturates):
+    """S = P_yy + R <= 0 (a state the class accepts though the filter never makes it): the guarded division
+    (MAX for 0, counted), 1 / -5 LSB (saturates to MIN) and 1 / -128 deg^2 (in range) give the class's bits
+    and counts."""
+    kf, before = build(32, 1)
+    kf.p_yy = Fx(np.array([p_yy]), kf.p_yy.fmt)
+    lanes = Lanes(kf)
+    kf.update(np.array([0.3]), np.array([0.0]))
+    lanes.update([0.3], [0.0])
+    assert_same(kf, before, lanes, f"P_yy = {p_yy}")
+    assert class_counts_since(kf, before).get("1 / S", 0) == saturates
 
 
 # ---- errors ------------------------------------------------------------------------------------------------------
