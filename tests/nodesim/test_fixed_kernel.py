@@ -4,6 +4,7 @@ narrow words (where intermediates saturate), from the constructor's state and fr
 the class is compared with its fused fast path on (as the chain runs it) and off (the exact path alone)."""
 
 import math
+import re
 import types
 from pathlib import Path
 
@@ -176,7 +177,7 @@ def python_copy(old: str, new: str) -> types.ModuleType:
     a Python int exponent, the params hold numpy ints)."""
     src = Path(fk.__file__).read_text()
     assert src.count(old) >= 1
-    src = src.replace(old, new).replace("@njit(cache=True)", "").replace("math.ldexp(", "_ldexp(")
+    src = re.sub(r"^@njit.*$", "", src.replace(old, new), flags=re.M).replace("math.ldexp(", "_ldexp(")
     mod = types.ModuleType("fixed_kernel_copy")
     mod._ldexp = lambda v, f: math.ldexp(v, int(f))
     exec(compile(src, "fixed_kernel_copy", "exec"), mod.__dict__)

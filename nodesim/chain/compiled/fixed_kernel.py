@@ -111,7 +111,7 @@ def counts_dict(counts) -> dict[str, int]:
 
 
 # ---- primitives on int64 scalars ---------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _sat(x, frac_in, w, f, counts, site):
     """fixedpoint._requantize with HALF_EVEN and SATURATE of the int64 intermediate ``x``."""
     hi = (np.int64(1) << (w - 1)) - 1
@@ -141,7 +141,7 @@ def _sat(x, frac_in, w, f, counts, site):
     return x
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _aligned(a, fa, b, fb, sign):
     """((int64_t)a << sa) +/- ((int64_t)b << sb) in the finer format; returns (sum, its frac bits)."""
     if abs(fa - fb) > MAX_ALIGN:
@@ -151,24 +151,24 @@ def _aligned(a, fa, b, fb, sign):
     return (xa + xb if sign > 0 else xa - xb), fm
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _add(a, fa, b, fb, p, i, counts, site):
     x, fm = _aligned(a, fa, b, fb, 1)
     return _sat(x, fm, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _sub(a, fa, b, fb, p, i, counts, site):
     x, fm = _aligned(a, fa, b, fb, -1)
     return _sat(x, fm, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mul(a, fa, b, fb, p, i, counts, site):
     return _sat(a * b, fa + fb, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _div(a, fa, b, fb, p, i, counts, site):
     """fixedpoint.div with HALF_EVEN and SATURATE."""
     w, f = p[i], p[i + 1]
@@ -192,14 +192,14 @@ def _div(a, fa, b, fb, p, i, counts, site):
     return _sat(q, f, w, f, counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _wrap(x, w):
     """Two's-complement wrap into ``w`` bits (the binary angle)."""
     x &= (np.int64(1) << w) - 1
     return x - ((x >> (w - 1)) << w)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _from_float_sat(v, w, f, counts, site):
     """fixedpoint.from_float (HALF_EVEN, SATURATE) of one finite double."""
     y = np.rint(math.ldexp(v, f))
@@ -214,7 +214,7 @@ def _from_float_sat(v, w, f, counts, site):
     return np.int64(y)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _from_float_wrap(v, w, f):
     """fixedpoint.from_float (HALF_EVEN, WRAP, no counter) of one finite double: the exact residue modulo 2**w.
     A value whose scaling overflows to infinity gives 0, as the class does (fmod(inf) = NaN, cast to INT64_MIN
@@ -228,14 +228,14 @@ def _from_float_wrap(v, w, f):
     return _wrap(np.int64(np.fmod(y, math.ldexp(1.0, w))), w)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _to_float(raw, f):
     return math.ldexp(float(raw), -f)
 
 
 # ---- the filter ----------------------------------------------------------------------------------------------
-@njit(cache=True)
-def predict_raw(state, rate_raw, params, counts):
+@njit(cache=True, inline="always")
+def _predict_raw(state, rate_raw, params, counts):
     """FixedYawFilter.predict_raw of one lane, the gyro rate already a raw word in ``formats.rate``."""
     p = params
     fr, fb, fy, fyy, fyb, fbb = p[W_RATE + 1], p[W_BIAS + 1], p[W_YAW + 1], p[W_YY + 1], p[W_YB + 1], p[W_BB + 1]
@@ -254,16 +254,28 @@ def predict_raw(state, rate_raw, params, counts):
 
 
 @njit(cache=True)
+def predict_raw(state, rate_raw, params, counts):
+    """FixedYawFilter.predict_raw of one lane, the gyro rate already a raw word in ``formats.rate``."""
+    _predict_raw(state, rate_raw, params, counts)
+
+
+@njit(cache=True)
+def update_raw(state, ref_raw, r_raw, params, counts):
+    """FixedYawFilter.update_raw of one lane (mask True): reference as a binary angle, variance in P_yy's format."""
+    _update_raw(state, ref_raw, r_raw, params, counts)
+
+
+@njit(cache=True)
 def predict(state, rate_rad_s, params, counts):
     """FixedYawFilter.predict of one lane: the rate in rad/s crosses into Q deg/s (site "gyro rate")."""
     v = rate_rad_s * RAD_TO_DEG
     if not math.isfinite(v):
         raise NodesimError("gyro rate: non-finite value (or one whose deg/s value overflows); allowed finite rad/s")
-    predict_raw(state, _from_float_sat(v, params[W_RATE], params[W_RATE + 1], counts, S_GYRO), params, counts)
+    _predict_raw(state, _from_float_sat(v, params[W_RATE], params[W_RATE + 1], counts, S_GYRO), params, counts)
 
 
-@njit(cache=True)
-def update_raw(state, ref_raw, r_raw, params, counts):
+@njit(cache=True, inline="always")
+def _update_raw(state, ref_raw, r_raw, params, counts):
     """FixedYawFilter.update_raw of one lane (mask True): reference as a binary angle, variance in P_yy's format."""
     p = params
     fy, fb, fyy, fyb, fbb = p[W_YAW + 1], p[W_BIAS + 1], p[W_YY + 1], p[W_YB + 1], p[W_BB + 1]
@@ -295,7 +307,7 @@ def update(state, ref_rad, var_rad2, params, counts):
         raise NodesimError("reference variance: its deg^2 value overflows; allowed finite numbers")
     ref_raw = _from_float_wrap(ref_rad / TURN_RAD, params[W_YAW], params[W_YAW + 1])
     r_raw = _from_float_sat(v, params[W_YY], params[W_YY + 1], counts, S_REF_VAR)
-    update_raw(state, ref_raw, r_raw, params, counts)
+    _update_raw(state, ref_raw, r_raw, params, counts)
 
 
 @njit(cache=True)
