@@ -21,6 +21,10 @@ policy (HALF_EVEN, SATURATE) is compiled; :func:`kernel_params` rejects any othe
 :mod:`firmware_model.fixedpoint` allows raise :class:`~nodesim.errors.NodesimError` at the first use, where
 the class raises ``FirmwareError``.
 
+The primitives and the raw steps are inlined at numba's IR level (``inline="always"``): an array passed to a
+non-inlined njit function is reference-counted on every call, which made each step ~5x slower (measured:
+~300 ns -> ~55 ns per predict).  A caller's njit loop calls ``predict``/``update`` directly.
+
 The class applies an update mask after computing every lane: its overflow counts include lanes whose update
 is discarded.  ``update`` here is the class's update of one lane with the mask True.
 """
