@@ -10,19 +10,30 @@
   ``KalmanFilter`` objects running the same filter with the same closed-loop reset.  To keep the run short
   the loop is timed on 400 filters and scaled per realization-step (its cost is linear in the count).
   ``batched_fixed_filter_speedup_vs_filterpy`` is the same for the fixed-point filter.
+- ``fixed_kernel_speedup_vs_numpy_r1``: 2000 predict+update steps of one fixed-point filter (R = 1) through
+  ``FixedYawFilter`` over the same steps through the numba kernels of ``nodesim.chain.compiled.fixed_kernel``
+  in an njit loop (warmed up first); ``fixed_kernel_bits_equal`` is 1.0 when both end in the same raws and
+  overflow counts; ``fixed_kernel_compile_s`` the kernels' first call in a fresh process with an empty numba
+  cache (compilation from scratch; later processes load the on-disk cache).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
+import tempfile
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
+from numba import njit
 
 from firmware_model import fixedpoint as fp
 from firmware_model.fixedpoint import Overflow, QFormat, Rounding
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter, wrap_pi
 from nodesim.bench import best_time_s
+from nodesim.chain.compiled import fixed_kernel as fk
 from nodesim.errors import NodesimError
 
 N_ELEMENTS = 100_000
@@ -120,4 +131,69 @@ def batched_filter_vs_filterpy() -> dict:
     }
 
 
-BENCHMARKS = [fixedpoint_vs_fxpmath, batched_filter_vs_filterpy]
+KERNEL_STEPS = 2000
+_COMPILE_PROBE = """
+import time
+import numpy as np
+t0 = time.perf_counter()
+from firmware_model.fixed_filter import FixedYawFilter
+from firmware_model.yaw_filter import YawFilterConfig
+from nodesim.chain.compiled import fixed_kernel as fk
+kf = FixedYawFilter(YawFilterConfig(dt_s=0.5, arw_rad_per_sqrt_s=1e-4, bias_instability_rad_s=1e-5, bias_tau_s=500.0), 1)
+params, state, counts = fk.kernel_params(kf), fk.lane_states(kf)[0], np.zeros(len(fk.SITES), dtype=np.int64)
+t1 = time.perf_counter()
+fk.predict(state, 0.01, params, counts)
+fk.update(state, 0.1, 1e-6, params, counts)
+fk.yaw_rad(state, params), fk.bias_rad_s(state, params), fk.yaw_variance_rad2(state, params)
+print(time.perf_counter() - t1)
+"""
+
+
+@njit
+def _kernel_steps(state, rate, ref, var, params, counts):
+    for k in range(rate.size):
+        fk.predict(state, rate[k], params, counts)
+        fk.update(state, ref[k], var, params, counts)
+
+
+def _class_steps(cfg, rate, ref, var):
+    kf = make_yaw_filter("fixed", cfg, 1)
+    for k in range(rate.size):
+        kf.predict(rate[k])
+        kf.update(ref[k], var)
+    return kf
+
+
+def fixed_kernel_vs_numpy() -> dict:
+    cfg = _config()
+    var = (0.1015 * DEG) ** 2
+    rng = np.random.default_rng(2)
+    rate = 3.6 * DEG + 0.01 * DEG * rng.standard_normal(KERNEL_STEPS)
+    ref = np.cumsum(np.full(KERNEL_STEPS, 3.6 * DEG / 1.9)) + 0.1 * DEG * rng.standard_normal(KERNEL_STEPS)
+    kf0 = make_yaw_filter("fixed", cfg, 1)
+    params, counts0 = fk.kernel_params(kf0), dict(kf0.overflow_counts)
+    state, counts = fk.lane_states(kf0)[0].copy(), np.zeros(len(fk.SITES), dtype=np.int64)
+    _kernel_steps(state, rate, ref, var, params, counts)  # warm-up: compiles the loop (and loads the kernels)
+    kf = _class_steps(cfg, rate, ref, var)
+    new_counts = {k: v - counts0.get(k, 0) for k, v in kf.overflow_counts.items() if v != counts0.get(k, 0)}
+    same = bool((fk.lane_states(kf)[0] == state).all() and fk.counts_dict(counts) == new_counts)
+
+    def kernel_run():
+        s, c = fk.lane_states(kf0)[0].copy(), np.zeros(len(fk.SITES), dtype=np.int64)
+        _kernel_steps(s, rate, ref, var, params, c)
+
+    t_class = best_time_s(lambda: _class_steps(cfg, rate, ref, var), repeat=3)
+    t_kernel = best_time_s(kernel_run, repeat=7, number=5)
+    with tempfile.TemporaryDirectory() as cache:
+        probe = subprocess.run([sys.executable, "-c", _COMPILE_PROBE], capture_output=True, text=True, check=True,
+                               env={**os.environ, "NUMBA_CACHE_DIR": cache})
+    return {
+        "fixed_kernel_speedup_vs_numpy_r1": t_class / t_kernel,
+        "fixed_kernel_bits_equal": float(same),
+        "fixed_kernel_compile_s": float(probe.stdout.split()[-1]),
+        "fixed_filter_r1_2000_steps_s": t_class,
+        "fixed_kernel_r1_2000_steps_s": t_kernel,
+    }
+
+
+BENCHMARKS = [fixedpoint_vs_fxpmath, batched_filter_vs_filterpy, fixed_kernel_vs_numpy]
