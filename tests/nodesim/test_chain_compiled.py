@@ -52,6 +52,14 @@ CASES = {
 }
 
 
+FIXED = {  # the bit-exact fixed-point filter (its overflow counting is checked lane by lane in test_fixed_kernel.py)
+    "fixed, lossy hops": {**LOSSY, "filter.implementation": "fixed"},
+    "fixed, dead node and fallback": {**CASES["dead node, fallback"], "filter.implementation": "fixed"},
+    "fixed, every tick, extrapolated": {**CASES["every tick, extrapolated rate"], "filter.implementation": "fixed"},
+    "fixed, 16-bit word": {**LOSSY, "filter.implementation": "fixed", "filter.fixed_word_bits": 16},
+}
+
+
 def _both(over: dict):
     s = Scenario().with_overrides(**over)
     return (simulate_chain(s.with_overrides(**{"simulation.engine": "event"})),
@@ -79,9 +87,9 @@ def assert_identical(event, compiled) -> None:
             _same(getattr(la.stats, f), getattr(lb.stats, f), f"{la.channel.name} {f}")
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", list(CASES) + list(FIXED))
 def test_compiled_engine_matches_the_event_engine(name):
-    event, compiled = _both(CASES[name])
+    event, compiled = _both({**CASES, **FIXED}[name])
     assert_identical(event, compiled)
     assert any(n.update_mask.any() for n in compiled.nodes)  # the run did something worth comparing
 

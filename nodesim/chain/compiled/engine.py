@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 
 from nodesim.chain.compiled import events as ev
-from nodesim.chain.compiled import filters
+from nodesim.chain.compiled import filters, fixed_kernel, float_kernel
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
 from nodesim.scenario import Scenario
@@ -187,14 +187,6 @@ def _resolve(net, links: _Links):
             slots *= 2
 
 
-def _kernels(scenario: Scenario):
-    if scenario.filter.implementation == "fixed":
-        from nodesim.chain.compiled import fixed_kernel as k
-    else:
-        from nodesim.chain.compiled import float_kernel as k
-    return k, (k.predict, k.update, k.yaw_rad, k.bias_rad_s, k.yaw_variance_rad2)
-
-
 def _run_node(net, n: int, out) -> None:
     """Phase 2 for node index ``n`` (module docstring); writes the node's records."""
     from nodesim.chain.estimator import new_filter
@@ -216,9 +208,13 @@ def _run_node(net, n: int, out) -> None:
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
-    module, kernels = _kernels(net.scenario)
+    fixed = net.scenario.filter.implementation == "fixed"
+    module = fixed_kernel if fixed else float_kernel
+    placeholder = (np.zeros((1, 5), np.int64), np.zeros(1, np.int64)) if not fixed else (np.zeros((1, 5)), np.zeros(7))
     state, params = module.lane_states(node.kf), module.kernel_params(node.kf)
-    counts = np.zeros(len(getattr(module, "SITES", (None,))), dtype=np.int64)
+    fstate, fparams = (placeholder if fixed else (state, params))
+    istate, iparams = ((state, params) if fixed else placeholder)
+    counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)
     enc_ref = np.zeros((R, K))
     if n == 0:
         t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
@@ -228,14 +224,13 @@ def _run_node(net, n: int, out) -> None:
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     c = net.scenario.chain
-    filters.run_node(kernels, state, params, counts, sig.gyro_rad_s, t, n_static + 1, k_end, n == 0,
+    filters.run_node(fixed, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end, n == 0,
                      node.scheduled, enc_ref, net.encoder.variance_rad2, node.applied, offset, np.ascontiguousarray(src_tick[:, :K, n]),
                      tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above),
                      net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                      node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var)
-    if hasattr(module, "counts_dict"):
-        for site, count in module.counts_dict(counts).items():
-            node.kf.ctx.counter.record(site, count)
+    for site, count in fixed_kernel.counts_dict(counts).items():
+        node.kf.ctx.counter.record(site, count)
 
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None):

@@ -10,46 +10,71 @@ realization r, as :class:`nodesim.chain.node.ChainNode` does it:
         psi_ref = psi_hat_(n-s)[j] + omega transfer                                  (thesis eq 3.29)
         R = P_(n-s)[j] + (transfer sigma_rate)^2 + sigma_off^2                        (thesis digest 2.6)
     record yaw, P_yy and bias.
-The filter arithmetic comes in as compiled functions (``kernels`` = predict, update, yaw_rad, bias_rad_s,
-yaw_variance_rad2 of :mod:`.float_kernel` or :mod:`.fixed_kernel`), so float and fixed share this loop.
+The filter arithmetic is :mod:`.float_kernel` or :mod:`.fixed_kernel` (``fixed``), inlined, on the state of
+that kind (``fstate`` (R, 5) float64 or ``istate`` (R, 5) int64 raws; the other one is a placeholder).
 """
 
 from __future__ import annotations
 
 from numba import njit
 
+from nodesim.chain.compiled import fixed_kernel as fxk
+from nodesim.chain.compiled import float_kernel as flk
+
+
+@njit(cache=True, inline="always")
+def _predict(fixed, fst, ist, rate, fparams, iparams, counts) -> None:
+    if fixed:
+        fxk.predict(ist, rate, iparams, counts)
+    else:
+        flk.predict(fst, rate, fparams, counts)
+
+
+@njit(cache=True, inline="always")
+def _update(fixed, fst, ist, ref, var, fparams, iparams, counts) -> None:
+    if fixed:
+        fxk.update(ist, ref, var, iparams, counts)
+    else:
+        flk.update(fst, ref, var, fparams, counts)
+
+
+@njit(cache=True, inline="always")
+def _outputs(fixed, fst, ist, fparams, iparams):
+    """(yaw, P_yy, bias) as the filter reports them."""
+    if fixed:
+        return fxk.yaw_rad(ist, iparams), fxk.yaw_variance_rad2(ist, iparams), fxk.bias_rad_s(ist, iparams)
+    return flk.yaw_rad(fst, fparams), flk.yaw_variance_rad2(fst, fparams), flk.bias_rad_s(fst, fparams)
+
 
 @njit(cache=True)
-def run_node(kernels, state, params, counts, gyro, t, k_first, k_end, is_top, scheduled, enc_ref, enc_var,
-             applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
+def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, is_top, scheduled, enc_ref,
+             enc_var, applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
              yaw, var, bias, ref_yaw, ref_var) -> None:
     """Ticks ``k_first`` .. ``k_end - 1`` of one node (module docstring); ``up_*`` = (node above, node two
-    above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference came from), -1 for none."""
-    predict, update, yaw_of, bias_of, var_of = kernels
-    R = state.shape[0]
+    above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference came from), -1
+    for none."""
+    R = fstate.shape[0] if not fixed else istate.shape[0]
     for r in range(R):  # realizations are independent: one after the other, each over its ticks
-        st = state[r]
+        fst, ist = fstate[r if not fixed else 0], istate[r if fixed else 0]
         for k in range(k_first, k_end):
-            predict(st, gyro[r, k], params, counts)
+            _predict(fixed, fst, ist, gyro[r, k], fparams, iparams, counts)
             if is_top:
                 if scheduled[k] and applied[r, k]:
-                    update(st, enc_ref[r, k], enc_var, params, counts)
+                    _update(fixed, fst, ist, enc_ref[r, k], enc_var, fparams, iparams, counts)
                     ref_yaw[r, k], ref_var[r, k] = enc_ref[r, k], enc_var
             elif src_node[r, k] > 0:
                 s, j = src_node[r, k] - 1, src_tick[r, k]
                 transfer = t[k] - up_t[s][j]
-                omega = gyro[r, k] - bias_of(st, params)
+                omega = gyro[r, k] - _outputs(fixed, fst, ist, fparams, iparams)[2]
                 if extrapolate and k > 0:
                     slope = (gyro[r, k] - gyro[r, k - 1]) / dt_s
                     omega = omega + slope * 0.5 * (dt_s - transfer)
                 ref = up_yaw[s][r, j] + omega * transfer
                 d = transfer * rate_sigma
                 v = up_var[s][r, j] + d * d + offset_var
-                update(st, ref, v, params, counts)
+                _update(fixed, fst, ist, ref, v, fparams, iparams, counts)
                 ref_yaw[r, k], ref_var[r, k] = ref, v
-            yaw[r, k] = yaw_of(st, params)
-            var[r, k] = var_of(st, params)
-            bias[r, k] = bias_of(st, params)
+            yaw[r, k], var[r, k], bias[r, k] = _outputs(fixed, fst, ist, fparams, iparams)
 
 
 @njit(cache=True)

@@ -269,7 +269,7 @@ def update_raw(state, ref_raw, r_raw, params, counts):
     _update_raw(state, ref_raw, r_raw, params, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict(state, rate_rad_s, params, counts):
     """FixedYawFilter.predict of one lane: the rate in rad/s crosses into Q deg/s (site "gyro rate")."""
     v = rate_rad_s * RAD_TO_DEG
@@ -299,7 +299,7 @@ def _update_raw(state, ref_raw, r_raw, params, counts):
     state[I_YAW], state[I_BIAS], state[I_PYY], state[I_PYB], state[I_PBB] = new_yaw, new_bias, max(yy, 1), yb, max(bb, 1)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def update(state, ref_rad, var_rad2, params, counts):
     """FixedYawFilter.update of one lane with the mask True."""
     if not (math.isfinite(ref_rad) and math.isfinite(var_rad2)):
@@ -314,17 +314,17 @@ def update(state, ref_rad, var_rad2, params, counts):
     _update_raw(state, ref_raw, r_raw, params, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def yaw_rad(state, params):
     """FixedYawFilter.yaw_rad of one lane (binary angle in radians, [-pi, pi))."""
     return _to_float(state[I_YAW], params[W_YAW + 1]) * TURN_RAD
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def bias_rad_s(state, params):
     return _to_float(state[I_BIAS], params[W_BIAS + 1]) / RAD_TO_DEG
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def yaw_variance_rad2(state, params):
     return _to_float(state[I_PYY], params[W_YY + 1]) / RAD2_TO_DEG2
