@@ -34,6 +34,11 @@ class LazyStreams:
     def __iter__(self):
         return (self[r] for r in range(len(self)))
 
+    @property
+    def built(self) -> list[np.random.Generator | None]:
+        """The generators built so far (None where a realization's was never needed)."""
+        return list(self._gens)
+
 
 @dataclass
 class LossDraws:

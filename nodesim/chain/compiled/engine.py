@@ -242,8 +242,10 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None):
     for i, node in enumerate(net.nodes):
         node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
     net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()
+    if progress is not None:
+        progress(0.5)  # phase 1 done; phase 2 reports node by node
     for n in range(net.n_nodes):
         _run_node(net, n, out)
         if progress is not None:
-            progress((n + 1) / net.n_nodes)
+            progress(0.5 + 0.5 * (n + 1) / net.n_nodes)
     return net.result()

@@ -4,6 +4,7 @@ import io
 import json
 
 import numpy as np
+import pytest
 
 from nodesim.chain import simulate_chain
 from nodesim.cli.main import main
@@ -11,18 +12,19 @@ from nodesim.scenario import Scenario
 from nodesim.sweep.progress import SimulatedTimeProgress
 
 
-def _scenario():
+def _scenario(engine="auto"):
     return Scenario().with_overrides(**{
         "simulation.duration_s": 120.0, "simulation.realizations": 2, "chain.nodes": 2,
-        "metrics.window_start_s": 60.0, "metrics.window_end_s": 120.0,
+        "metrics.window_start_s": 60.0, "metrics.window_end_s": 120.0, "simulation.engine": engine,
     })
 
 
-def test_progress_callback_is_monotone_and_changes_nothing():
+@pytest.mark.parametrize("engine, calls", [("event", 100), ("compiled", 3)])  # simulated-time steps; phases
+def test_progress_callback_is_monotone_and_changes_nothing(engine, calls):
     seen = []
-    with_cb = simulate_chain(_scenario(), progress=seen.append)
-    without = simulate_chain(_scenario())
-    assert seen[-1] == 1.0 and len(seen) >= 100
+    with_cb = simulate_chain(_scenario(engine), progress=seen.append)
+    without = simulate_chain(_scenario(engine))
+    assert seen[-1] == 1.0 and len(seen) >= calls
     assert all(b > a for a, b in zip(seen, seen[1:]))
     for a, b in zip(with_cb.nodes, without.nodes):
         assert np.array_equal(a.yaw_est_rad, b.yaw_est_rad, equal_nan=True)
