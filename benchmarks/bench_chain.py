@@ -1,17 +1,23 @@
 """Chain simulation speed.
 
 * ``chain_batched_speedup_vs_loop``: time of R single-realization runs divided by the time of one run with R
-  realizations (same total work) on a 4-tube drilling run.
+  realizations (same total work) on a 4-tube drilling run (SimPy engine: drilling runs there).
 * ``chain100_1h_overhead_vs_skeleton``: ``scenarios/perf/chain100_1h.toml`` (100 nodes, 1 simulated hour,
-  lossy soil hops with the ARQ MAC, fixed-point filters) against a bare SimPy skeleton with the same processes
-  and events (one process per node, one timeout per tick at the same times) and no work.  The chain's wall
-  time for the hour is EXTRAPOLATED from two short slices (first ``SLICE_S`` simulated seconds: wall(T2) +
-  (3600 - T2) x the marginal cost per simulated second between T1 and T2), so the benchmark stays short; the
-  skeleton runs the full hour.  Keys: ``chain100_1h_wall_s_extrapolated``, ``chain100_skeleton_1h_s``,
-  ``chain100_1h_overhead_vs_skeleton`` (ratio; goal <= 3), ``chain100_events_per_s``.
+  lossy soil hops with the ARQ MAC, fixed-point filters) on the default engine (compiled: lab motion), the
+  full hour measured, against a bare SimPy skeleton with the same processes and events (one process per node,
+  one timeout per tick at the same times) and no work.  Goal <= 3.  The compiled engine's first call in a
+  process loads (or, on a fresh machine, compiles) its numba code: timed apart as ``chain_compiled_warmup_s``.
+  The SimPy engine's hour is EXTRAPOLATED from two short slices (first ``SLICE_S`` simulated seconds:
+  wall(T2) + (3600 - T2) x the marginal cost per simulated second between T1 and T2):
+  ``chain100_1h_event_engine_overhead_vs_skeleton`` and ``chain100_compiled_speedup_vs_event_engine``.
 * ``batched_mc_speedup``: R = 1000 realizations of a 20-node chain (the perf chain's links, float filters,
-  ``MC_DURATION_S`` simulated) in one batched run versus one by one; the one-by-one time is EXTRAPOLATED
-  from ``MC_SAMPLE`` single runs (first_realization = 0..MC_SAMPLE-1) x 1000 / MC_SAMPLE.  Goal >= 20.
+  ``MC_DURATION_S`` simulated) in one batched run versus one by one, on the default (compiled) engine; the
+  one-by-one time is EXTRAPOLATED from ``MC_SAMPLE`` single runs (first_realization = 0..MC_SAMPLE-1) x 1000 /
+  MC_SAMPLE.  Goal >= 20.  ``batched_mc_speedup_event_engine``: the same on the SimPy engine.
+* ``chain1000_24h_wall_s_extrapolated``: a 1000-node chain of the perf scenario on the compiled engine for
+  the two durations of ``BIG_S``, EXTRAPOLATED to 24 h with the marginal cost per simulated second between
+  them (past the 50 s static window), and likewise the bytes of per-tick records the run keeps
+  (``chain1000_24h_records_gb_extrapolated``): what 1000 nodes x 24 h takes today.
 """
 
 from importlib import resources
@@ -29,6 +35,9 @@ MC_R = 1000
 MC_NODES = 20
 MC_DURATION_S = 120.0
 MC_SAMPLE = 5
+BIG_NODES = 1000
+BIG_S = (120.0, 240.0)
+DAY_S = 24 * 3600.0
 
 
 def _scenario(folder: str, name: str):
@@ -71,45 +80,79 @@ def _sliced(scenario, duration_s: float):
                                       "metrics.window_end_s": duration_s})
 
 
+def _event_engine(scenario):
+    return scenario.with_overrides(**{"simulation.engine": "event"})
+
+
 def chain100_1h_overhead_vs_skeleton() -> dict:
     from nodesim.chain import simulate_chain
 
     perf = _scenario("perf", "chain100_1h.toml")
-    walls, events = [], 0
-    for t in SLICE_S:
-        s = _sliced(perf, t)
-        walls.append(best_time_s(lambda: simulate_chain(s), repeat=1))
-    run = simulate_chain(_sliced(perf, SLICE_S[0]))
-    assert run.simpy_events == skeleton(_sliced(perf, SLICE_S[0])), "skeleton and chain must share the events"
+    warmup = best_time_s(lambda: simulate_chain(_sliced(perf, 60.0).with_overrides(**{"chain.nodes": 3})), repeat=1)
+    run = simulate_chain(perf)
+    assert run.engine == "compiled" and run.simpy_events == skeleton(perf), "same engine and events as the skeleton"
+    wall = best_time_s(lambda: simulate_chain(perf), repeat=2)
+    walls = [best_time_s(lambda: simulate_chain(_event_engine(_sliced(perf, t))), repeat=1) for t in SLICE_S]
     marginal = (walls[1] - walls[0]) / (SLICE_S[1] - SLICE_S[0])
-    chain_1h = walls[1] + (HOUR_S - SLICE_S[1]) * marginal
+    event_1h = walls[1] + (HOUR_S - SLICE_S[1]) * marginal
     t_skel = best_time_s(lambda: skeleton(perf), repeat=2)
-    events = skeleton(perf)
     return {
-        "chain100_1h_overhead_vs_skeleton": chain_1h / t_skel,
-        "chain100_1h_wall_s_extrapolated": chain_1h,
-        "chain100_slice_120s_wall_s": walls[1],
+        "chain100_1h_overhead_vs_skeleton": wall / t_skel,
+        "chain100_1h_wall_s": wall,
         "chain100_skeleton_1h_s": t_skel,
-        "chain100_1h_events": events,
-        "chain100_events_per_s": events / chain_1h,
+        "chain100_1h_events": run.simpy_events,
+        "chain100_events_per_s": run.simpy_events / wall,
+        "chain_compiled_warmup_s": warmup,
+        "chain100_1h_event_engine_wall_s_extrapolated": event_1h,
+        "chain100_1h_event_engine_overhead_vs_skeleton": event_1h / t_skel,
+        "chain100_compiled_speedup_vs_event_engine": event_1h / wall,
     }
 
 
-def batched_mc_speedup() -> dict:
+def _batched_vs_one_by_one(base) -> tuple[float, float, float]:
+    """(one-by-one time for MC_R extrapolated from MC_SAMPLE runs, batched time, single-run time)."""
     from nodesim.chain import simulate_chain
 
-    base = _sliced(_scenario("perf", "chain100_1h.toml"), MC_DURATION_S).with_overrides(
-        **{"chain.nodes": MC_NODES, "filter.implementation": "float"})
     singles = [base.with_overrides(**{"simulation.first_realization": r}) for r in range(MC_SAMPLE)]
+    simulate_chain(singles[0])  # warm (the compiled engine's first call loads its code)
     t_one = best_time_s(lambda: [simulate_chain(s) for s in singles], repeat=1) / MC_SAMPLE
     batched = base.with_overrides(**{"simulation.realizations": MC_R})
     t_batch = best_time_s(lambda: simulate_chain(batched), repeat=1)
+    return t_one * MC_R, t_batch, t_one
+
+
+def batched_mc_speedup() -> dict:
+    base = _sliced(_scenario("perf", "chain100_1h.toml"), MC_DURATION_S).with_overrides(
+        **{"chain.nodes": MC_NODES, "filter.implementation": "float"})
+    one, batch, single = _batched_vs_one_by_one(base)
+    one_ev, batch_ev, single_ev = _batched_vs_one_by_one(_event_engine(base))
     return {
-        "batched_mc_speedup": t_one * MC_R / t_batch,
-        "batched_mc_1000_realizations_s": t_batch,
-        "batched_mc_one_by_one_1000_s_extrapolated": t_one * MC_R,
-        "batched_mc_single_run_s": t_one,
+        "batched_mc_speedup": one / batch,
+        "batched_mc_1000_realizations_s": batch,
+        "batched_mc_one_by_one_1000_s_extrapolated": one,
+        "batched_mc_single_run_s": single,
+        "batched_mc_speedup_event_engine": one_ev / batch_ev,
+        "batched_mc_1000_realizations_event_engine_s": batch_ev,
+        "batched_mc_single_run_event_engine_s": single_ev,
     }
 
 
-BENCHMARKS = [chain_drilling_batched_vs_loop, chain100_1h_overhead_vs_skeleton, batched_mc_speedup]
+def chain1000_24h_extrapolated() -> dict:
+    from nodesim.chain import simulate_chain
+
+    perf = _scenario("perf", "chain100_1h.toml").with_overrides(**{"chain.nodes": BIG_NODES})
+    walls, records = [], []
+    for t in BIG_S:
+        run = simulate_chain(_sliced(perf, t))
+        walls.append(best_time_s(lambda: simulate_chain(_sliced(perf, t)), repeat=1))
+        records.append(sum(v.nbytes for n in run.nodes for v in vars(n).values() if hasattr(v, "nbytes")))
+    span = BIG_S[1] - BIG_S[0]
+    return {
+        "chain1000_240s_wall_s": walls[1],
+        "chain1000_24h_wall_s_extrapolated": walls[1] + (DAY_S - BIG_S[1]) * (walls[1] - walls[0]) / span,
+        "chain1000_24h_records_gb_extrapolated": (records[1] + (DAY_S - BIG_S[1]) * (records[1] - records[0]) / span) / 1e9,
+    }
+
+
+BENCHMARKS = [chain_drilling_batched_vs_loop, chain100_1h_overhead_vs_skeleton, batched_mc_speedup,
+              chain1000_24h_extrapolated]

@@ -50,6 +50,12 @@ def _realization_seq(seed: int, index: int) -> np.random.SeedSequence:
     return _child(np.random.SeedSequence(seed), index)
 
 
+@lru_cache(maxsize=1 << 16)
+def _node_seq(seed: int, realization: int, node: int) -> np.random.SeedSequence:
+    """Node ``node`` of realization ``realization`` (cached: each of its sensor streams starts here)."""
+    return _child(_realization_seq(seed, realization), node)
+
+
 @dataclass(frozen=True)
 class RunStreams:
     """Factory of the named random streams of one run (root seed -> realizations -> nodes/links)."""
@@ -64,8 +70,7 @@ class RunStreams:
     def sensor(self, realization: int, node: int, stream: str) -> np.random.Generator:
         """Generator for sensor ``stream`` (one of :data:`SENSOR_STREAMS`) of ``node`` in ``realization``."""
         k = SENSOR_STREAMS.index(stream)
-        node_seq = _child(self._realization(realization), node)
-        return np.random.default_rng(_child(node_seq, k))
+        return np.random.default_rng(_child(_node_seq(self.seed, self.first_realization + realization, node), k))
 
     def link(self, realization: int, link: int) -> np.random.Generator:
         """Generator for link ``link`` (0 = encoder/top hop) in ``realization``."""

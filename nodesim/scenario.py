@@ -167,7 +167,8 @@ class FilterSection(_Section):
 
     implementation: Literal["float", "fixed"] = "float"
     fixed_word_bits: int = Field(
-        32, ge=8, le=32, description="fixed: MCU word length; fewer bits keep each variable's range, lose resolution"
+        32, ge=12, le=32, description="fixed: MCU word length; fewer bits keep each variable's range, lose "
+        "resolution (below 12 bits the filter's 1 / S division needs a shift beyond the 30 bits the firmware allows)"
     )
     tuning_a: float = Field(1.0, gt=0.0, le=1e3)
     tuning_b: float = Field(5.0, gt=0.0, le=1e3)

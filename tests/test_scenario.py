@@ -110,3 +110,16 @@ def test_overrides_are_revalidated():
 
 def test_parse_accepts_int_for_float_fields():
     assert parse_scenario({"simulation": {"duration_s": 620}}).simulation.duration_s == 620.0
+
+
+def test_fixed_word_below_12_bits_is_a_clear_error():
+    # below 12 bits the fixed filter's 1 / S division would need a shift beyond 30 bits (FixedYawFilter
+    # raises at the first update); the scenario says so up front
+    with pytest.raises(ScenarioError, match=r"filter.fixed_word_bits.*greater than or equal to 12"):
+        Scenario().with_overrides(**{"filter.fixed_word_bits": 11})
+    assert Scenario().with_overrides(**{"filter.fixed_word_bits": 12}).filter.fixed_word_bits == 12
+
+
+def test_engine_key_is_checked():
+    with pytest.raises(ScenarioError, match="simulation.engine"):
+        Scenario().with_overrides(**{"simulation.engine": "fast"})

@@ -45,9 +45,7 @@ class GyroZModel:
 
     def gauss_markov(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
         """Stationary Gauss-Markov bias samples, shape (R, K)."""
-        return np.stack(
-            [noise.gauss_markov(rng, (n_ticks,), self.bias_instability_rad_s, self.bias_tau_s, dt_s) for rng in rng_per_realization]
-        )
+        return noise.gauss_markov_rows(rng_per_realization, n_ticks, self.bias_instability_rad_s, self.bias_tau_s, dt_s)
 
     def white_noise(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
         """Rate noise averaged over one tick, shape (R, K): sigma = ARW / sqrt(dt)."""

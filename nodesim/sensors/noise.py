@@ -44,8 +44,20 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     """
     if sigma == 0.0:
         return np.zeros(shape)
+    return _ar1(rng.standard_normal(shape), sigma, tau_s, dt_s)
+
+
+def gauss_markov_rows(rngs: list[np.random.Generator], n: int, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
+    """:func:`gauss_markov` of ``n`` samples from each generator, stacked (len(rngs), n), filtered in one call
+    (the same numbers as one call per generator: the recursion runs row by row)."""
+    if sigma == 0.0:
+        return np.zeros((len(rngs), n))
+    return _ar1(np.stack([g.standard_normal(n) for g in rngs]), sigma, tau_s, dt_s)
+
+
+def _ar1(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
+    """x[0] = sigma w[0], x[k] = phi x[k-1] + sigma sqrt(1 - phi^2) w[k], phi = exp(-dt / tau), last axis."""
     phi = math.exp(-dt_s / tau_s)
-    w = rng.standard_normal(shape)
     drive = w * (sigma * math.sqrt(1.0 - phi * phi))
     drive[..., 0] = sigma * w[..., 0]
     return lfilter([1.0], [1.0, -phi], drive, axis=-1)

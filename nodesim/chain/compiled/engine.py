@@ -114,13 +114,16 @@ class _Links:
         start[1:] = np.cumsum(self.sizes.ravel())[:-1]
         start = start.reshape(R, L)
         buf = np.empty(int(self.sizes.sum()))
-        for r in range(R):
-            for i in range(L):
-                a, n, k = start[r, i], self.sizes[r, i], kept[r, i]
+        starts, sizes, kept, old = start.tolist(), self.sizes.tolist(), kept.tolist(), self.start.tolist()
+        for i in range(L):
+            gens = None
+            for r in range(R):
+                a, n, k = starts[r][i], sizes[r][i], kept[r][i]
                 if k:
-                    buf[a:a + k] = self.buffer[self.start[r, i]:self.start[r, i] + k]
+                    buf[a:a + k] = self.buffer[old[r][i]:old[r][i] + k]
                 if n > k:
-                    self.link(i).draws.generators[r].random(out=buf[a + k:a + n])
+                    gens = gens or self.link(i).draws.generators
+                    gens[r].random(out=buf[a + k:a + n])
         self.buffer, self.start = buf, start
 
     def more(self, i: int, r: int) -> None:
@@ -172,13 +175,13 @@ def _resolve(net, links: _Links):
                  np.zeros((R, L), np.int64), np.zeros((R, L)), np.zeros((R, L), dtype=bool))
         inbox = (np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots), np.int64),
                  np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots)), np.zeros((R, N), np.int64))
-        out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, Kmax, N), dtype=bool), np.full((R, Kmax, N), np.nan),
-               np.full((R, Kmax, N), -1, np.int64), np.full((R, Kmax, N), -1, np.int64), np.full((R, Kmax), np.nan),
+        out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
+               np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32), np.full((R, Kmax), np.nan),
                np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
         need = np.zeros(2, np.int64)
         status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
                                links.margin, links.draws(), radio, stats, mac, inbox, np.full((R, N), -1, np.int64),
-                               np.zeros((R, N), np.int64), out, need)
+                               np.zeros((R, N), np.int64), out, need, np.zeros(N, dtype=bool))
         if status == ev.DONE:
             return order[0].size, out, radio, stats
         if status == ev.NEED_DRAWS:
@@ -198,8 +201,7 @@ def _run_node(net, n: int, out) -> None:
     k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
     n_static = int(np.searchsorted(t[:k_end], node.timeline.filter_start_s, side="left"))
     node.running[:] = running[:K, n]
-    node.applied[:] = applied[:, :K, n]
-    node.age[:] = age[:, :K, n]
+    node.applied, node.age = applied[:, n, :K], age[:, n, :K]  # views of phase 1's records
     node.stale, node.duplicate = stale[:, n].copy(), dup[:, n].copy()
     if n_static:
         node.yaw[:, :n_static] = net.encoder.read_many(t[:n_static])[0]
@@ -220,12 +222,12 @@ def _run_node(net, n: int, out) -> None:
         t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
         yaw_enc, rate_enc = net.encoder.read_many(t_read)
         enc_ref = yaw_enc - rate_enc * (t_read - t)
-    src = src_node[:, :K, n]
+    src = src_node[:, n, :K]
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     c = net.scenario.chain
     filters.run_node(fixed, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end, n == 0,
-                     node.scheduled, enc_ref, net.encoder.variance_rad2, node.applied, offset, np.ascontiguousarray(src_tick[:, :K, n]),
+                     node.scheduled, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K],
                      tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above),
                      net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                      node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var)

@@ -128,8 +128,8 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src
         if newer and not have:
             have = True
             seq_taken = i_seq[r, n, j]
-            src_node[r, k, n], src_tick[r, k, n] = i_src[r, n, j], i_tick[r, n, j]
-            age[r, k, n] = t - t_read
+            src_node[r, n, k], src_tick[r, n, k] = i_src[r, n, j], i_tick[r, n, j]
+            age[r, n, k] = t - t_read
     if have:
         last_seq[r, n] = seq_taken
     for i in range(m, c):  # drop the arrived packets
@@ -168,20 +168,19 @@ def event_order(T, K, dead_at):
     return nodes, ticks
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, chan, margin, draws, radio, stats,
-               mac, inbox, last_seq, streak, out, need):
+               mac, inbox, last_seq, streak, out, need, started):
     """Run every event of ``order`` (from :func:`event_order`) in every realization (module docstring).
     ``nodes_cfg`` = (processing_s, max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,)
-    int, after_failures, min_margin_db); ``out`` = (running (K, N), applied (R, K, N), age, src_node, src_tick
-    (R, K, N), encoder t_read (R, K), stale (R, N), duplicate (R, N)).  Returns a status code."""
+    int, after_failures, min_margin_db); ``out`` = (running (K, N), applied (R, N, K), age, src_node, src_tick
+    (R, N, K), encoder t_read (R, K), stale (R, N), duplicate (R, N)).  Returns a status code."""
     N, R = T.shape[1], last_seq.shape[0]
     ev_node, ev_tick = order
     processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
     surface = N
-    started = np.zeros(N, dtype=np.bool_)
     for r in range(R):
         started[:] = False
         for e in range(ev_node.shape[0]):
@@ -211,12 +210,12 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
                             need[0], need[1] = 0, r
                             return NEED_DRAWS
                         if have:
-                            applied[r, k, n] = True
-                            age[r, k, n] = arr2 - t_read
+                            applied[r, n, k] = True
+                            age[r, n, k] = arr2 - t_read
                             ready = arr2
                             valid = True
             elif _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age):
-                applied[r, k, n] = True
+                applied[r, n, k] = True
                 valid = True
             if n == N - 1 or not valid:
                 continue

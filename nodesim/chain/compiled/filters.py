@@ -46,7 +46,7 @@ def _outputs(fixed, fst, ist, fparams, iparams):
     return flk.yaw_rad(fst, fparams), flk.yaw_variance_rad2(fst, fparams), flk.bias_rad_s(fst, fparams)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, is_top, scheduled, enc_ref,
              enc_var, applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
              yaw, var, bias, ref_yaw, ref_var) -> None:
