@@ -16,19 +16,21 @@ import numpy as np
 
 
 class LazyStreams:
-    """One generator per realization, each built on first use (``make(r)``): a link that never transmits, such
-    as an up link of a run without surveys, costs no generator."""
+    """One generator per realization, all built together on first use (``make_all()``, e.g.
+    :meth:`nodesim.rng.RunStreams.link_batch`): a link that never transmits, such as an up link of a run
+    without surveys, costs no generator."""
 
-    def __init__(self, make: Callable[[int], np.random.Generator], realizations: int):
-        self._make = make
-        self._gens: list[np.random.Generator | None] = [None] * realizations
+    def __init__(self, make_all: Callable[[], list[np.random.Generator]], realizations: int):
+        self._make_all = make_all
+        self._n = realizations
+        self._gens: list[np.random.Generator] | None = None
 
     def __len__(self) -> int:
-        return len(self._gens)
+        return self._n
 
     def __getitem__(self, r: int) -> np.random.Generator:
-        if self._gens[r] is None:
-            self._gens[r] = self._make(r)
+        if self._gens is None:
+            self._gens = self._make_all()
         return self._gens[r]
 
     def __iter__(self):
@@ -36,8 +38,8 @@ class LazyStreams:
 
     @property
     def built(self) -> list[np.random.Generator | None]:
-        """The generators built so far (None where a realization's was never needed)."""
-        return list(self._gens)
+        """The generators (None everywhere if they were never needed)."""
+        return list(self._gens) if self._gens is not None else [None] * self._n
 
 
 @dataclass

@@ -145,9 +145,9 @@ class Network:
         def link(channel, gens, h):
             return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h))
 
-        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link, link=h), R), h)
+        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, h), R), h)
                            for h in range(c.nodes)]
-        self.up_links = [link(self.hops[h], LazyStreams(partial(streams.link, link=c.nodes + h), R), h)
+        self.up_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, c.nodes + h), R), h)
                          for h in range(c.nodes)]
         self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
         self.surface = RadioState(R, mac.queue_length)
@@ -171,7 +171,7 @@ class Network:
         """The fallback link from ``node_id`` to the node after its neighbour (built on first use; its draws
         come from its own streams, so when it is built does not matter)."""
         if node_id not in self._skip_links:
-            gens = LazyStreams(partial(self._streams.skip_link, node=node_id), self.R)
+            gens = LazyStreams(partial(self._streams.skip_link_batch, self.R, node_id), self.R)
             self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1)
         return self._skip_links[node_id]
 

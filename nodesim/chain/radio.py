@@ -163,7 +163,7 @@ def hop_channels(scenario: Scenario, streams: RunStreams, R: int) -> tuple[list[
     grid = _time_grid(scenario)
     sigma = scenario.radio.shadowing_sigma_db
     if sigma > 0.0:
-        gens = [[streams.radio(r, h) for r in range(R)] for h in range(n)]
+        gens = [streams.radio_batch(R, h) for h in range(n)]
         shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * sigma
         skip_shadow = np.array([[g.standard_normal() for g in row] for row in gens]) * sigma
     else:  # no shadowing: zero draws (what sigma x N(0, 1) gives) without building the hops' generators
