@@ -47,11 +47,11 @@ def stepped_ticks(scenario: Scenario, node_id: int, t_s: np.ndarray, duration_s:
     for step in scenario.faults.clock_step:
         if step.node == node_id:
             t_s = np.where(t_s >= step.at_s, t_s + step.step_s, t_s)
-    keep = (t_s >= 0.0) & (t_s <= duration_s)
-    if t_s.size:
-        keep &= t_s >= np.maximum.accumulate(t_s)
-        keep[1:] &= np.diff(t_s) > 0.0
-    return t_s[keep]
+    t_s = t_s[(t_s >= 0.0) & (t_s <= duration_s)]
+    if t_s.size < 2:
+        return t_s
+    before_max = np.concatenate(([-np.inf], np.maximum.accumulate(t_s)[:-1]))
+    return t_s[t_s > before_max]  # strictly after every earlier tick: a step back of whole ticks repeats none
 
 
 @dataclass
@@ -73,7 +73,9 @@ class Fallback:
                    np.zeros(R, dtype=np.int64), np.zeros(R, dtype=bool))
 
     def record(self, sending: np.ndarray, delivered: np.ndarray, t_s: float) -> np.ndarray:
-        """Count unacknowledged frames in a row; return where this failed frame goes over the skip hop."""
+        """Count unacknowledged frames in a row; return where this failed frame goes over the skip hop.
+        ``sending``: the realizations whose frame went on air (one the sender's queue dropped tells nothing
+        about the neighbour: it neither counts nor goes over the skip hop)."""
         if not self.enabled:
             return np.zeros(sending.shape, dtype=bool)
         failed = sending & ~delivered

@@ -33,6 +33,7 @@ from nodesim.chain.node import ChainNode
 from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.radio import HopChannel, hop_channels
 from nodesim.chain.sensing import EncoderReader, node_signals
+from nodesim.errors import NodesimError
 from nodesim.rng import RunStreams
 from nodesim.scenario import Scenario
 from nodesim.schedules import UpdateSchedule
@@ -158,6 +159,12 @@ class Network:
             offset, drift = node_clock(scenario, i + 1)
             t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
             t = faults.stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
+            if t.size == 0:
+                steps = [(x.at_s, x.step_s) for x in scenario.faults.clock_step if x.node == i + 1]
+                raise NodesimError(
+                    f"node {i + 1} has no firmware tick inside the run [0, {scenario.simulation.duration_s} s] "
+                    f"(clock offset {offset} s, faults.clock_step (at_s, step_s) {steps}): lengthen "
+                    "simulation.duration_s or shorten chain.clock_stagger_s / chain.clock_offset_s / the step")
             sig = node_signals(scenario, self.motion, streams, i, t, self.dt_s)
             node = ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)

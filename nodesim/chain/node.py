@@ -204,7 +204,7 @@ class ChainNode:
         t_ready = self.ready_s + net.processing_s
         below = net.nodes[self.index + 1]
         tr = net.down_links[self.index + 1].transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
-        skip = self.fallback.record(valid, tr.delivered, t)
+        skip = self.fallback.record(valid & ~np.isnan(tr.end_s), tr.delivered, t)
         if tr.delivered.any():
             below.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
         if skip.any():  # the neighbour did not answer: on to the node after it, once the exchange is over

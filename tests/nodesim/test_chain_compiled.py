@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from nodesim.chain import simulate_chain
+from nodesim.chain.compiled import engine
 from nodesim.chain.compiled.engine import choose_engine
 from nodesim.errors import NodesimError
 from nodesim.scenario import Scenario
@@ -49,6 +50,15 @@ CASES = {
     "duty cycle and a one-frame queue": {**LOSSY, "mac.duty_cycle": 0.01, "mac.queue_length": 1},
     "rising soil water": {**LOSSY, "radio.soil.vwc_profile": [[0.0, 0.2], [160.0, 0.34]],
                           "radio.profile_step_s": 5.0},
+    # the sender's queue drops frames while it falls back (a dropped frame neither counts nor goes over the skip
+    # hop; both engines once sent it there with a NaN ready time)
+    "outage, long ACK timeout, fallback": {**BASE, "mac.ack_timeout_s": 1.0,
+                                           "faults.link_outage": [{"hop": 3, "start_s": 70.0, "end_s": 130.0}]},
+    "dead node, one-frame queue, fallback": {**BASE, "mac.ack_timeout_s": 0.2, "mac.queue_length": 1,
+                                             "faults.node_failure": [{"node": 3, "at_s": 100.0}]},
+    "dead node, duty cycle, fallback": {**BASE, "mac.duty_cycle": 0.01, "mac.queue_length": 2,
+                                        "faults.node_failure": [{"node": 3, "at_s": 100.0}]},
+    "step back by 19 whole ticks": {**LOSSY, "faults.clock_step": [{"node": 2, "at_s": 100.0, "step_s": -10.0}]},
 }
 
 
@@ -106,6 +116,29 @@ def test_fallback_and_queue_cases_exercise_their_paths():
     assert run.skip_links and (run.skip_links[0].stats.frames > 100).all()
     _, run = _both(CASES["duty cycle and a one-frame queue"])
     assert sum(int(x.stats.dropped.sum()) for x in run.down_links) > 0
+
+
+@pytest.mark.parametrize("name, node", [("outage, long ACK timeout, fallback", 3),
+                                        ("dead node, one-frame queue, fallback", 4)])
+def test_a_queue_drop_during_fallback_does_not_silence_the_sender(name, node):
+    """A frame the sender's queue dropped once went on over the skip hop with a NaN ready time, which made the
+    SimPy engine's radio free time NaN: no frame of that node got through again.  Now the node below (the outage
+    over) or the one after the dead node (over the skip hop) keeps getting updates to the end."""
+    for run in _both(CASES[name]):
+        assert sum(int(x.stats.dropped.sum()) for x in run.down_links + run.skip_links) > 0  # the path is exercised
+        late = run.nodes[node - 1].update_mask[:, run.nodes[node - 1].t_s > 140.0]
+        assert late.sum(axis=1).min() >= 10
+
+
+def test_phase_1_restarts_do_not_grow_with_the_realizations(monkeypatch):
+    """A lane that runs out of draws grows its whole link, so a fallback link needs a few restarts, not ~2 R."""
+    calls = []
+    original = engine._Links.more
+    monkeypatch.setattr(engine._Links, "more", lambda self, *a: (calls.append(a), original(self, *a)))
+    over = {**CASES["dead node, fallback"], "simulation.realizations": 64, "simulation.engine": "compiled"}
+    run = simulate_chain(Scenario().with_overrides(**over))
+    assert (run.skip_links[0].stats.frames > 100).all()
+    assert 1 <= len(calls) <= 6
 
 
 def test_auto_picks_compiled_for_lab_and_event_for_drilling():

@@ -4,9 +4,9 @@ outage, a burst-loss link and a clock step each complete and move the metrics th
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain import faults, simulate_chain
 from nodesim.chain.metrics import per_realization_metrics
-from nodesim.errors import ScenarioError
+from nodesim.errors import NodesimError, ScenarioError
 from nodesim.scenario import Scenario
 
 BASE = {  # 4 nodes, soil hops with the ARQ MAC, lab rotation from 50 s; metrics over 60..220 s
@@ -100,6 +100,28 @@ def test_clock_step_moves_the_ticks_and_the_update_age(healthy):
     assert np.all(np.diff(t) > 0)
     assert np.all(m["node3_mean_update_age_s"] > ok["node3_mean_update_age_s"] + 0.2)
     assert np.all(m["node2_mean_update_age_s"] == ok["node2_mean_update_age_s"])
+
+
+def test_a_step_back_by_whole_ticks_repeats_no_tick():
+    # a step of exactly -2 ticks lands the stepped ticks on earlier ones: each time is kept once, in order
+    t = faults.stepped_ticks(Scenario().with_overrides(**{**BASE, "faults.clock_step": [
+        {"node": 2, "at_s": 2.0, "step_s": -1.0}]}), 2, np.arange(10) * 0.5, 10.0)
+    assert t.tolist() == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
+
+
+def test_a_step_back_of_19_ticks_completes_with_finite_estimates():
+    # 10 s = 19 ticks at 1.9 Hz: before the fix the repeated tick times gave a zero-length gyro average (NaN)
+    r, m = run(**{"faults.clock_step": [{"node": 2, "at_s": 100.0, "step_s": -10.0}]})
+    assert np.all(np.diff(r.nodes[1].t_s) > 0)
+    for node in r.nodes:
+        assert np.isfinite(node.yaw_est_rad).all()
+    assert np.isfinite(m["node4_rms_yaw_error_deg"]).all()
+
+
+def test_a_node_without_a_tick_in_the_run_is_a_clear_error():
+    with pytest.raises(NodesimError, match=r"node 2 has no firmware tick inside the run \[0, 5.0 s\].*\(0.0, 10.0\)"):
+        run(**{"simulation.duration_s": 5.0, "metrics.window_start_s": 0.0, "metrics.window_end_s": 5.0,
+               "faults.clock_step": [{"node": 2, "at_s": 0.0, "step_s": 10.0}]})
 
 
 def test_fault_keys_are_checked_against_the_chain():

@@ -126,10 +126,14 @@ class _Links:
                     gens[r].random(out=buf[a + k:a + n])
         self.buffer, self.start = buf, start
 
-    def more(self, i: int, r: int) -> None:
-        """Twice the buffered draws of one lane (the continuation of its stream)."""
+    def more(self, i: int, r: int, done_fraction: float) -> None:
+        """More buffered draws for every lane of link ``i`` (the continuation of their streams), after lane ``r``
+        ran out with ``done_fraction`` of the events behind it: at least twice as many, and as many as that lane's
+        rate of use says the whole run needs.  Growing the whole link keeps the restarts of phase 1 to a few per
+        link whatever R is (one lane at a time would make them grow with R)."""
         kept = self.sizes.copy()
-        self.sizes[r, i] = max(256, 2 * self.sizes[r, i])
+        used = int(self.sizes[r, i])
+        self.sizes[:, i] = max(256, 2 * int(self.sizes[:, i].max()), int(math.ceil(1.2 * used / done_fraction)))
         self._fill(kept)
 
     def draws(self) -> tuple:
@@ -178,14 +182,14 @@ def _resolve(net, links: _Links):
         out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
                np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32), np.full((R, Kmax), np.nan),
                np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
-        need = np.zeros(2, np.int64)
+        need = np.zeros(3, np.int64)
         status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
                                links.margin, links.draws(), radio, stats, mac, inbox, np.full((R, N), -1, np.int64),
                                np.zeros((R, N), np.int64), out, need, np.zeros(N, dtype=bool))
         if status == ev.DONE:
             return order[0].size, out, radio, stats
         if status == ev.NEED_DRAWS:
-            links.more(int(need[0]), int(need[1]))
+            links.more(int(need[0]), int(need[1]), (int(need[2]) + 1) / order[0].size)
         else:
             slots *= 2
 
@@ -212,10 +216,10 @@ def _run_node(net, n: int, out) -> None:
     node._record(n_static)
     fixed = net.scenario.filter.implementation == "fixed"
     module = fixed_kernel if fixed else float_kernel
-    placeholder = (np.zeros((1, 5), np.int64), np.zeros(1, np.int64)) if not fixed else (np.zeros((1, 5)), np.zeros(7))
     state, params = module.lane_states(node.kf), module.kernel_params(node.kf)
-    fstate, fparams = (placeholder if fixed else (state, params))
-    istate, iparams = ((state, params) if fixed else placeholder)
+    # run_node takes a float and an integer filter's arrays (one compiled signature); the unused one is a stand-in
+    fstate, fparams = (np.zeros((1, 5)), np.zeros(7)) if fixed else (state, params)
+    istate, iparams = (state, params) if fixed else (np.zeros((1, 5), np.int64), np.zeros(1, np.int64))
     counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)
     enc_ref = np.zeros((R, K))
     if n == 0:
@@ -227,7 +231,7 @@ def _run_node(net, n: int, out) -> None:
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     c = net.scenario.chain
     filters.run_node(fixed, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end, n == 0,
-                     node.scheduled, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K],
+                     enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K],
                      tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above),
                      net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                      node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var)

@@ -22,15 +22,18 @@ Sequence numbers are the event counter: they increase with send time, which is a
 The order of the events is the same in every realization (:func:`event_order`, once), and realizations share
 no state, so :func:`run_events` runs them one after the other over that order, each with its state together in
 memory (arrays are realization-major).
-Status codes: 0 done; 1 a lane ran out of buffered draws (``need`` = link, realization); 2 an inbox is full.
+Status codes: 0 done; 1 a lane ran out of buffered draws (``need`` = link, realization, event index); 2 an
+inbox is full.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-from nodesim.chain.compiled.mac_kernel import transfer
+from nodesim.chain.compiled.mac_kernel import time_row, transfer
 
 DONE, NEED_DRAWS, INBOX_FULL = 0, 1, 2
 
@@ -199,7 +202,7 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
                 if scheduled[k]:
                     got, arr, end, short = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac)
                     if short:
-                        need[0], need[1] = 0, r
+                        need[0], need[1], need[2] = 0, r, e
                         return NEED_DRAWS
                     t_read = arr if got else t
                     enc_t_read[r, k] = t_read
@@ -207,7 +210,7 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
                         have, arr2, end2, short = transfer(0, r, end, surface, n, np.inf, chan, draws, radio, stats,
                                                            mac)
                         if short:
-                            need[0], need[1] = 0, r
+                            need[0], need[1], need[2] = 0, r, e
                             return NEED_DRAWS
                         if have:
                             applied[r, n, k] = True
@@ -222,23 +225,23 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
             got, arr, end, short = transfer(n + 1, r, ready + processing_s, n, n + 1, dead_at[n + 1], chan, draws,
                                             radio, stats, mac)
             if short:
-                need[0], need[1] = n + 1, r
+                need[0], need[1], need[2] = n + 1, r, e
                 return NEED_DRAWS
             if got and not _deliver(inbox, r, n + 1, seq, n, k, arr):
                 return INBOX_FULL
-            if not fb_on[n]:
+            if not fb_on[n] or math.isnan(end):  # fallback off, or the queue dropped the frame (faults.Fallback)
                 continue
             if got:
                 streak[r, n] = 0
                 continue
             streak[r, n] += 1
             link = fb_link[n]
-            g = min(int(t / chan[3][link]), chan[2][link] - 1)
+            g = time_row(chan, link, t)
             if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
                 got, arr, end, short = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio, stats,
                                                 mac)
                 if short:
-                    need[0], need[1] = link, r
+                    need[0], need[1], need[2] = link, r, e
                     return NEED_DRAWS
                 if got and not _deliver(inbox, r, n + 2, seq, n, k, arr):
                     return INBOX_FULL

@@ -47,8 +47,8 @@ def _outputs(fixed, fst, ist, fparams, iparams):
 
 
 @njit(cache=True, _nrt=False)
-def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, is_top, scheduled, enc_ref,
-             enc_var, applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
+def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, is_top, enc_ref, enc_var,
+             applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
              yaw, var, bias, ref_yaw, ref_var) -> None:
     """Ticks ``k_first`` .. ``k_end - 1`` of one node (module docstring); ``up_*`` = (node above, node two
     above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference came from), -1
@@ -59,7 +59,7 @@ def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, 
         for k in range(k_first, k_end):
             _predict(fixed, fst, ist, gyro[r, k], fparams, iparams, counts)
             if is_top:
-                if scheduled[k] and applied[r, k]:
+                if applied[r, k]:  # only ever on a scheduled tick
                     _update(fixed, fst, ist, enc_ref[r, k], enc_var, fparams, iparams, counts)
                     ref_yaw[r, k], ref_var[r, k] = enc_ref[r, k], enc_var
             elif src_node[r, k] > 0:

@@ -257,18 +257,6 @@ def _predict_raw(state, rate_raw, params, counts):
     state[I_YAW], state[I_PYY], state[I_PYB], state[I_PBB] = new_yaw, max(y, 1), yb, max(bb, 1)
 
 
-@njit(cache=True)
-def predict_raw(state, rate_raw, params, counts):
-    """FixedYawFilter.predict_raw of one lane, the gyro rate already a raw word in ``formats.rate``."""
-    _predict_raw(state, rate_raw, params, counts)
-
-
-@njit(cache=True)
-def update_raw(state, ref_raw, r_raw, params, counts):
-    """FixedYawFilter.update_raw of one lane (mask True): reference as a binary angle, variance in P_yy's format."""
-    _update_raw(state, ref_raw, r_raw, params, counts)
-
-
 @njit(cache=True, inline="always")
 def predict(state, rate_rad_s, params, counts):
     """FixedYawFilter.predict of one lane: the rate in rad/s crosses into Q deg/s (site "gyro rate")."""

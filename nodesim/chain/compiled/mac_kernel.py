@@ -27,11 +27,9 @@ import math
 import numpy as np
 from numba import njit
 
-NO_RADIO = -1
-
-
 @njit(cache=True, inline='always')
-def _row(chan, link: int, t: float) -> int:
+def time_row(chan, link: int, t: float) -> int:
+    """Row of ``link``'s per-time tables (PER, margin) that holds time ``t``."""
     rows, step = chan[2][link], chan[3][link]
     if rows == 1:
         return 0
@@ -63,7 +61,7 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
     enabled = mac[0] > 0.0
     frames[r, link] += 1
     sending = True
-    if enabled and tx != NO_RADIO:
+    if enabled:
         held = 0
         for q in range(queue_end.shape[2]):
             if queue_end[r, tx, q] > t_ready:
@@ -83,7 +81,6 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
     heard = 0
     wait_sum = 0.0
     alive_always = rx_dead_at_s == np.inf
-    half_duplex = enabled and rx != NO_RADIO
     if sending:
         for _ in range(attempts):
             if done:
@@ -97,7 +94,7 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             u_state = buf[d_start[r, link] + p + per_attempt - 2] if has_burst else 0.0
             u_loss = buf[d_start[r, link] + p + per_attempt - 1] if has_burst else 0.0
             d_pos[r, link] = p + per_attempt
-            g = _row(chan, link, t)
+            g = time_row(chan, link, t)
             ok = u0 >= per_data[r, link, g]
             if not alive_always:
                 alive = t < rx_dead_at_s
@@ -114,7 +111,7 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
                 bad[r, link] = bad[r, link] ^ flip
                 if u_loss < (burst[link, 4] if bad[r, link] else burst[link, 3]):
                     ok = False
-            if half_duplex and t < busy_end[r, rx] and t + airtime > busy_start[r, rx]:
+            if enabled and t < busy_end[r, rx] and t + airtime > busy_start[r, rx]:
                 ok = False
             if ok and math.isnan(arrival):
                 arrival = t + airtime
@@ -133,18 +130,16 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
     if enabled:
         if alive_always:
             heard = n_att
-        if tx != NO_RADIO:
-            tx_s[r, tx] += n_att * airtime
-            rx_s[r, tx] += wait_sum
-        if rx != NO_RADIO:
-            tx_s[r, rx] += (ack_airtime if done else 0.0)
-            rx_s[r, rx] += heard * airtime
+        tx_s[r, tx] += n_att * airtime
+        rx_s[r, tx] += wait_sum
+        tx_s[r, rx] += (ack_airtime if done else 0.0)
+        rx_s[r, rx] += heard * airtime
     got = not math.isnan(arrival)
     if got:
         delivered_n[r, link] += 1
         latency_sum[r, link] += arrival - t_ready
     end = t if sending else np.nan
-    if enabled and tx != NO_RADIO and sending:
+    if enabled and sending:
         busy_start[r, tx] = start
         busy_end[r, tx] = t
         free_at[r, tx] = t
