@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
+
 @njit(cache=True, inline='always')
 def time_row(chan, link: int, t: float) -> int:
     """Row of ``link``'s per-time tables (PER, margin) that holds time ``t``."""
