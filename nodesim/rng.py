@@ -38,6 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.random.bit_generator import ISeedSequence
 
+from nodesim import pcg64_kernel
+
 SENSOR_STREAMS: tuple[str, ...] = ("gyro", "accel", "encoder", "magnetometer", "clock")
 """Per-node stream names, in spawn order.  Append new names at the end only."""
 
@@ -136,6 +138,19 @@ def generators(seed: int, keys: np.ndarray) -> list[np.random.Generator]:
     return [np.random.Generator(np.random.PCG64(_Precomputed(s))) for s in seed_states(seed, keys)]
 
 
+def pcg64_states(seed: int, keys: np.ndarray) -> np.ndarray:
+    """The PCG64 states (M, 4) of ``generators(seed, keys)``, to draw from with :mod:`nodesim.pcg64_kernel`
+    (the same numbers as those generators, without building them)."""
+    keys = np.asarray(keys, dtype=np.int64)
+    if len(keys) >= VECTOR_MIN_KEYS:
+        words = seed_states(seed, keys)
+    else:
+        words = np.zeros((len(keys), POOL_WORDS), dtype=np.uint64)
+        for i, k in enumerate(keys):
+            words[i] = np.random.SeedSequence(seed, spawn_key=tuple(int(x) for x in k)).generate_state(4, np.uint64)
+    return pcg64_kernel.seeded(words)
+
+
 @dataclass(frozen=True)
 class RunStreams:
     """Factory of the named random streams of one run (root seed -> realizations -> nodes/links).
@@ -150,10 +165,12 @@ class RunStreams:
     def _one(self, *path: int) -> np.random.Generator:
         return np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=path))
 
-    def _batch(self, realizations: int, *path: int) -> list[np.random.Generator]:
+    def _keys(self, realizations: int, *path: int) -> np.ndarray:
         r = np.arange(self.first_realization, self.first_realization + realizations)
-        keys = np.column_stack([r] + [np.full(realizations, p) for p in path]) if realizations else np.zeros((0, 1 + len(path)))
-        return generators(self.seed, keys)
+        return np.column_stack([r] + [np.full(realizations, p) for p in path]) if realizations else np.zeros((0, 1 + len(path)))
+
+    def _batch(self, realizations: int, *path: int) -> list[np.random.Generator]:
+        return generators(self.seed, self._keys(realizations, *path))
 
     def _sensor_path(self, node: int, stream: str) -> tuple[int, int]:
         return node, SENSOR_STREAMS.index(stream)
@@ -162,9 +179,12 @@ class RunStreams:
         """Generator for sensor ``stream`` (one of :data:`SENSOR_STREAMS`) of ``node`` in ``realization``."""
         return self._one(self.first_realization + realization, *self._sensor_path(node, stream))
 
-    def sensor_batch(self, realizations: int, node: int, stream: str) -> list[np.random.Generator]:
-        """:meth:`sensor` for realizations 0..realizations-1 (used to draw batched noise arrays)."""
-        return self._batch(realizations, *self._sensor_path(node, stream))
+    def sensor_normals(self, realizations: int, node: int, stream: str, n: int) -> np.ndarray:
+        """(realizations, n): the first ``n`` ``standard_normal()`` draws of each realization's :meth:`sensor`
+        stream, drawn in one compiled call."""
+        out = np.empty((realizations, n))
+        pcg64_kernel.fill_normals(pcg64_states(self.seed, self._keys(realizations, *self._sensor_path(node, stream))), out)
+        return out
 
     def link(self, realization: int, link: int) -> np.random.Generator:
         """Generator for link ``link`` (0 = encoder/top hop) in ``realization``."""
@@ -173,6 +193,10 @@ class RunStreams:
     def link_batch(self, realizations: int, link: int) -> list[np.random.Generator]:
         """:meth:`link` for realizations 0..realizations-1."""
         return self._batch(realizations, self.n_nodes + link)
+
+    def link_states(self, realizations: int, link: int) -> np.ndarray:
+        """:meth:`link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.pcg64_kernel`."""
+        return pcg64_states(self.seed, self._keys(realizations, self.n_nodes + link))
 
     def radio(self, realization: int, hop: int) -> np.random.Generator:
         """Generator for the radio hop ``hop`` (0 = surface to the top node) in ``realization``."""
@@ -189,3 +213,7 @@ class RunStreams:
     def skip_link_batch(self, realizations: int, node: int) -> list[np.random.Generator]:
         """:meth:`skip_link` for realizations 0..realizations-1."""
         return self._batch(realizations, 4 * self.n_nodes + node)
+
+    def skip_link_states(self, realizations: int, node: int) -> np.ndarray:
+        """:meth:`skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.pcg64_kernel`."""
+        return pcg64_states(self.seed, self._keys(realizations, 4 * self.n_nodes + node))

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from nodesim import pcg64_kernel
 from nodesim.rng import VECTOR_MIN_KEYS, RunStreams, generators, seed_states
 
 
@@ -37,10 +38,23 @@ def test_seed_states_reject_bad_keys(bad):
 def test_batch_methods_equal_one_by_one():
     s = RunStreams(seed=11, n_nodes=4, first_realization=5)
     R = 40
-    pairs = [(s.sensor_batch(R, 2, "accel"), [s.sensor(r, 2, "accel") for r in range(R)]),
-             (s.link_batch(R, 3), [s.link(r, 3) for r in range(R)]),
+    pairs = [(s.link_batch(R, 3), [s.link(r, 3) for r in range(R)]),
              (s.radio_batch(R, 1), [s.radio(r, 1) for r in range(R)]),
              (s.skip_link_batch(R, 2), [s.skip_link(r, 2) for r in range(R)])]
     for batch, single in pairs:
         for a, b in zip(batch, single):
             assert (a.random(8) == b.random(8)).all()
+
+
+@pytest.mark.parametrize("R", [1, VECTOR_MIN_KEYS + 3])
+def test_compiled_draws_equal_the_streams_one_by_one(R):
+    """sensor_normals / link_states (nodesim.pcg64_kernel) give each realization's stream's own numbers."""
+    s = RunStreams(seed=11, n_nodes=4, first_realization=5)
+    normals = s.sensor_normals(R, 2, "accel", 300)
+    for r in range(R):
+        assert (normals[r] == s.sensor(r, 2, "accel").standard_normal(300)).all()
+    for states, one in ((s.link_states(R, 3), s.link), (s.skip_link_states(R, 2), s.skip_link)):
+        buf = np.empty(R * 8)
+        pcg64_kernel.fill_uniforms(states, np.arange(R), buf, np.arange(R) * 8, np.arange(R) * 8 + 8)
+        for r in range(R):
+            assert (buf[8 * r:8 * r + 8] == one(r, 3 if one == s.link else 2).random(8)).all()

@@ -24,8 +24,8 @@ from functools import partial
 import numpy as np
 import simpy
 
-from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
 from nodesim.chain import faults
+from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.links import LazyStreams, LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
 from nodesim.chain.motion import ChainMotion, build_motion
@@ -251,9 +251,8 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
     azi = np.full((R, K), np.nan)
     first = int(np.searchsorted(node.sig.t_s, node.timeline.present_from_s))
     if first < K:
-        i_raw, a_raw = resolve_survey(node.sig.specific_force[:, first:], node.yaw[:, first:])
-        inc[:, first:] = trailing_moving_average(i_raw, points)
-        azi[:, first:] = circular_moving_average(a_raw, points)
+        averaged_surveys(node.sig.specific_force[:, first:], node.yaw[:, first:], points, inc[:, first:],
+                         azi[:, first:])
     return NodeRun(
         node_id=node.node_id,
         t_s=node.sig.t_s,

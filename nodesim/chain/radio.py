@@ -129,21 +129,29 @@ def simple_channel(scenario: Scenario, name: str, R: int) -> HopChannel:
                       np.full((1, R), np.inf), 0.0, np.inf, c.link_delay_s, c.link_delay_s)
 
 
-def _channel(scenario: Scenario, name: str, kind: str, path_loss_db: np.ndarray, shadow_db: np.ndarray,
-             frame_bits: int, ack_bits: int) -> HopChannel:
-    r = scenario.radio
+def _channels(scenario: Scenario, specs: list[tuple[str, str, np.ndarray, np.ndarray]]) -> list[HopChannel]:
+    """One HopChannel per (name, kind, mean path loss (G,), shadowing (R,)); the PER tables of all channels of a
+    medium are evaluated in one vectorised call (element by element the same numbers as one call per hop)."""
+    r, m = scenario.radio, scenario.mac
     radio = per.Radio(r.bit_rate_bps, r.bandwidth_hz, r.noise_figure_db)
-    b = link_budget(scenario, kind)
-    loss = path_loss_db[:, None] + shadow_db[None, :]  # (G, R)
-    rx = b.received_power_dbm(loss)
-    return HopChannel(
-        name=name, kind=kind, step_s=r.profile_step_s,
-        per_data_table=np.asarray(per.packet_error_rate(rx, frame_bits, radio), dtype=float),
-        per_ack_table=np.asarray(per.packet_error_rate(rx, ack_bits, radio), dtype=float),
-        margin_db=np.asarray(b.margin_db(loss), dtype=float),
-        mean_path_loss_db=float(path_loss_db[0]), mean_margin_db=float(b.margin_db(path_loss_db[0])),
-        airtime_s=frame_bits / r.bit_rate_bps, ack_airtime_s=ack_bits / r.bit_rate_bps,
-    )
+    out: list[HopChannel | None] = [None] * len(specs)
+    for kind in dict.fromkeys(spec[1] for spec in specs):
+        idx = [i for i, spec in enumerate(specs) if spec[1] == kind]
+        b = link_budget(scenario, kind)
+        path_loss = np.stack([specs[i][2] for i in idx])  # (hops, G)
+        loss = path_loss[:, :, None] + np.stack([specs[i][3] for i in idx])[:, None, :]
+        rx = b.received_power_dbm(loss)  # (hops, G, R)
+        per_data = np.asarray(per.packet_error_rate(rx, m.frame_bits, radio), dtype=float)
+        per_ack = np.asarray(per.packet_error_rate(rx, m.ack_bits, radio), dtype=float)
+        margin = np.asarray(b.margin_db(loss), dtype=float)
+        for j, i in enumerate(idx):
+            out[i] = HopChannel(
+                name=specs[i][0], kind=kind, step_s=r.profile_step_s,
+                per_data_table=per_data[j], per_ack_table=per_ack[j], margin_db=margin[j],
+                mean_path_loss_db=float(path_loss[j, 0]), mean_margin_db=float(b.margin_db(path_loss[j, 0])),
+                airtime_s=m.frame_bits / r.bit_rate_bps, ack_airtime_s=m.ack_bits / r.bit_rate_bps,
+            )
+    return out
 
 
 def _time_grid(scenario: Scenario) -> np.ndarray:
@@ -159,7 +167,6 @@ def hop_channels(scenario: Scenario, streams: RunStreams, R: int) -> tuple[list[
     n = scenario.chain.nodes
     if scenario.radio.model == "simple":
         return [simple_channel(scenario, f"hop{h + 1}", R) for h in range(n)], [None] * n
-    m = scenario.mac
     grid = _time_grid(scenario)
     sigma = scenario.radio.shadowing_sigma_db
     if sigma > 0.0:
@@ -169,16 +176,22 @@ def hop_channels(scenario: Scenario, streams: RunStreams, R: int) -> tuple[list[
     else:  # no shadowing: zero draws (what sigma x N(0, 1) gives) without building the hops' generators
         shadow = skip_shadow = np.zeros((n, R))
     geos = [hop_geometry(scenario, h) for h in range(n)]
-    losses = [mean_path_loss_db(scenario, g, grid) for g in geos]
-    hops = [_channel(scenario, f"hop{h + 1}", geos[h].kind, losses[h], shadow[h], m.frame_bits, m.ack_bits)
-            for h in range(n)]
-    skips: list[HopChannel | None] = [None] * n
+    known: dict[HopGeometry, np.ndarray] = {}
+
+    def loss_of(geo: HopGeometry) -> np.ndarray:  # identical hops (a uniform chain) are evaluated once
+        if geo not in known:
+            known[geo] = mean_path_loss_db(scenario, geo, grid)
+        return known[geo]
+
+    specs = [(f"hop{h + 1}", geos[h].kind, loss_of(geos[h]), shadow[h]) for h in range(n)]
     for h in range(1, n - 1):
         a, b = geos[h], geos[h + 1]
         if a.kind == b.kind and a.kind != "cable":
-            joined = HopGeometry(a.kind, a.distance_m + b.distance_m, 0.0, a.vwc if a.vwc == b.vwc else None)
-            loss = mean_path_loss_db(scenario, joined, grid)
+            loss = loss_of(HopGeometry(a.kind, a.distance_m + b.distance_m, 0.0, a.vwc if a.vwc == b.vwc else None))
         else:
-            loss = losses[h] + losses[h + 1]
-        skips[h] = _channel(scenario, f"skip{h}-{h + 2}", a.kind, loss, skip_shadow[h], m.frame_bits, m.ack_bits)
-    return hops, skips
+            loss = specs[h][2] + specs[h + 1][2]
+        specs.append((f"skip{h}-{h + 2}", a.kind, loss, skip_shadow[h]))
+    channels = _channels(scenario, specs)
+    skips: list[HopChannel | None] = [None] * n
+    skips[1:n - 1] = channels[n:]
+    return channels[:n], skips

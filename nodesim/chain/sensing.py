@@ -60,16 +60,16 @@ def node_signals(
     accel = AccelModel(noise_m_s2_per_sqrt_hz=scenario.sensor.accel_noise_ug_per_sqrt_hz * 1e-6 * G0_M_S2)
     timeline = motion.timelines[node_index]
     rot = motion.rotation
-    gyro_rngs = streams.sensor_batch(R, node_index, "gyro")
-    gm = gyro.gauss_markov(gyro_rngs, K, dt_s)
+    gyro_normals = streams.sensor_normals(R, node_index, "gyro", gyro.normals_needed(K))
+    gm = gyro.gauss_markov(gyro_normals, K, dt_s)
     true_bias = gyro.true_bias_rad_s(t_s[None, :], timeline.filter_start_s, gm)
     true_rate = np.zeros(K)
     if K > 1:
         true_rate[1:] = rot.mean_rate_rad_s(t_s[:-1], t_s[1:])
-    meas = (1.0 + gyro.scale_factor_error) * true_rate[None, :] + true_bias + gyro.white_noise(gyro_rngs, K, dt_s)
+    meas = (1.0 + gyro.scale_factor_error) * true_rate[None, :] + true_bias + gyro.white_noise(gyro_normals, K, dt_s)
     att = motion.attitude(node_index, t_s)
     f = accel.specific_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad)[None] + accel.noise(
-        streams.sensor_batch(R, node_index, "accel"), K, dt_s
+        streams.sensor_normals(R, node_index, "accel", 3 * K), K, dt_s
     )
     return NodeSignals(
         t_s=t_s,

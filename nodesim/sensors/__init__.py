@@ -43,13 +43,22 @@ class GyroZModel:
         """Total bias at tick times (R, K) given the Gauss-Markov part ``gm`` (R, K)."""
         return self.turn_on_bias_rad_s + self.residual_bias_rad_s * (t_s >= motion_start_s) + gm
 
-    def gauss_markov(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
-        """Stationary Gauss-Markov bias samples, shape (R, K)."""
-        return noise.gauss_markov_rows(rng_per_realization, n_ticks, self.bias_instability_rad_s, self.bias_tau_s, dt_s)
+    def normals_needed(self, n_ticks: int) -> int:
+        """Standard normals per realization for :meth:`gauss_markov` then :meth:`white_noise` (the
+        Gauss-Markov part draws nothing when its sigma is 0)."""
+        return (n_ticks if self.bias_instability_rad_s != 0.0 else 0) + n_ticks
 
-    def white_noise(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
-        """Rate noise averaged over one tick, shape (R, K): sigma = ARW / sqrt(dt)."""
-        return np.stack([noise.white(rng, (n_ticks,), self.arw_rad_per_sqrt_s, dt_s) for rng in rng_per_realization])
+    def gauss_markov(self, normals: np.ndarray, n_ticks: int, dt_s: float) -> np.ndarray:
+        """Stationary Gauss-Markov bias samples (R, K) from the first draws of each row of ``normals``."""
+        if self.bias_instability_rad_s == 0.0:
+            return np.zeros((normals.shape[0], n_ticks))
+        return noise.gauss_markov_from_normals(normals[:, :n_ticks], self.bias_instability_rad_s, self.bias_tau_s,
+                                               dt_s)
+
+    def white_noise(self, normals: np.ndarray, n_ticks: int, dt_s: float) -> np.ndarray:
+        """Rate noise averaged over one tick (R, K) from the last ``n_ticks`` draws of each row of ``normals``:
+        sigma = ARW / sqrt(dt)."""
+        return noise.white_from_normals(normals[:, normals.shape[1] - n_ticks:], self.arw_rad_per_sqrt_s, dt_s)
 
 
 @dataclass(frozen=True)
@@ -66,6 +75,7 @@ class AccelModel:
         """Noise-free sensor-frame specific force, shape yaw.shape + (3,)."""
         return specific_force_body(inclination_rad, azimuth_rad, yaw_rad)
 
-    def noise(self, rng_per_realization: list[np.random.Generator], n_ticks: int, dt_s: float) -> np.ndarray:
-        """White noise averaged over one tick, shape (R, K, 3)."""
-        return np.stack([noise.white(rng, (n_ticks, 3), self.noise_m_s2_per_sqrt_hz, dt_s) for rng in rng_per_realization])
+    def noise(self, normals: np.ndarray, n_ticks: int, dt_s: float) -> np.ndarray:
+        """White noise averaged over one tick (R, K, 3) from 3 K standard normals per row of ``normals`` (drawn
+        in the order of ``standard_normal((K, 3))``)."""
+        return noise.white_from_normals(normals.reshape(-1, n_ticks, 3), self.noise_m_s2_per_sqrt_hz, dt_s)

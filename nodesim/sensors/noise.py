@@ -33,7 +33,12 @@ FLICKER_PER_DECADE = 3
 
 def white(rng: np.random.Generator, shape: tuple[int, ...], density: float, dt_s: float) -> np.ndarray:
     """White noise of two-sided PSD ``density**2`` sampled at ``dt_s``: sigma = density / sqrt(dt)."""
-    return (density / math.sqrt(dt_s)) * rng.standard_normal(shape)
+    return white_from_normals(rng.standard_normal(shape), density, dt_s)
+
+
+def white_from_normals(w: np.ndarray, density: float, dt_s: float) -> np.ndarray:
+    """:func:`white` from given standard normals ``w``."""
+    return (density / math.sqrt(dt_s)) * w
 
 
 def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
@@ -47,12 +52,10 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     return _ar1(rng.standard_normal(shape), sigma, tau_s, dt_s)
 
 
-def gauss_markov_rows(rngs: list[np.random.Generator], n: int, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
-    """:func:`gauss_markov` of ``n`` samples from each generator, stacked (len(rngs), n), filtered in one call
-    (the same numbers as one call per generator: the recursion runs row by row)."""
-    if sigma == 0.0:
-        return np.zeros((len(rngs), n))
-    return _ar1(np.stack([g.standard_normal(n) for g in rngs]), sigma, tau_s, dt_s)
+def gauss_markov_from_normals(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
+    """:func:`gauss_markov` driven by given standard normals ``w`` (rows of (R, n), e.g. each realization's
+    stream): the same numbers as one :func:`gauss_markov` call per row on the stream that drew them."""
+    return _ar1(w, sigma, tau_s, dt_s)
 
 
 def _ar1(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:

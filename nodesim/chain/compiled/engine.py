@@ -24,6 +24,7 @@ from typing import Callable
 
 import numpy as np
 
+from nodesim import pcg64_kernel
 from nodesim.chain.compiled import events as ev
 from nodesim.chain.compiled import filters, fixed_kernel, float_kernel
 from nodesim.chain.mac import LinkStats
@@ -98,6 +99,7 @@ class _Links:
             self.sizes[:, h] = int(math.ceil(frames * per_attempt * mean_attempts)) + 64
         self.buffer = np.empty(0)
         self.start = np.zeros((R, L), dtype=np.int64)
+        self.states: list[np.ndarray | None] = [None] * L
         self._fill(np.zeros((R, L), dtype=np.int64))
 
     def link(self, i: int):
@@ -114,17 +116,21 @@ class _Links:
         start[1:] = np.cumsum(self.sizes.ravel())[:-1]
         start = start.reshape(R, L)
         buf = np.empty(int(self.sizes.sum()))
-        starts, sizes, kept, old = start.tolist(), self.sizes.tolist(), kept.tolist(), self.start.tolist()
         for i in range(L):
-            gens = None
-            for r in range(R):
-                a, n, k = starts[r][i], sizes[r][i], kept[r][i]
-                if k:
-                    buf[a:a + k] = self.buffer[old[r][i]:old[r][i] + k]
-                if n > k:
-                    gens = gens or self.link(i).draws.generators
-                    gens[r].random(out=buf[a + k:a + n])
+            for r in np.flatnonzero(kept[:, i]):
+                buf[start[r, i]:start[r, i] + kept[r, i]] = self.buffer[self.start[r, i]:self.start[r, i] + kept[r, i]]
+            rows = np.flatnonzero(self.sizes[:, i] > kept[:, i])
+            if rows.size:
+                pcg64_kernel.fill_uniforms(self._states(i), rows, buf, start[rows, i] + kept[rows, i],
+                                           start[rows, i] + self.sizes[rows, i])
         self.buffer, self.start = buf, start
+
+    def _states(self, i: int) -> np.ndarray:
+        """Link ``i``'s PCG64 states (R, 4), where its draws stand (built on first use)."""
+        if self.states[i] is None:
+            streams, N, R = self.net._streams, self.net.n_nodes, self.net.R
+            self.states[i] = streams.link_states(R, i) if i < N else streams.skip_link_states(R, i - N + 1)
+        return self.states[i]
 
     def more(self, i: int, r: int, done_fraction: float) -> None:
         """More buffered draws for every lane of link ``i`` (the continuation of their streams), after lane ``r``
