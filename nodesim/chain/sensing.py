@@ -66,11 +66,11 @@ def node_signals(
     true_rate = np.zeros(K)
     if K > 1:
         true_rate[1:] = rot.mean_rate_rad_s(t_s[:-1], t_s[1:])
-    meas = (1.0 + gyro.scale_factor_error) * true_rate[None, :] + true_bias + gyro.white_noise(gyro_normals, K, dt_s)
+    meas = (1.0 + gyro.scale_factor_error) * true_rate[None, :] + true_bias
+    meas += gyro.white_noise(gyro_normals, K, dt_s)
     att = motion.attitude(node_index, t_s)
-    f = accel.specific_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad)[None] + accel.noise(
-        streams.sensor_normals(R, node_index, "accel", 3 * K), K, dt_s
-    )
+    f = accel.noise(streams.sensor_normals(R, node_index, "accel", 3 * K), K, dt_s)
+    f += accel.specific_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad)[None]  # noise-free + noise
     return NodeSignals(
         t_s=t_s,
         gyro_rad_s=meas,

@@ -56,8 +56,8 @@ class GyroZModel:
                                                dt_s)
 
     def white_noise(self, normals: np.ndarray, n_ticks: int, dt_s: float) -> np.ndarray:
-        """Rate noise averaged over one tick (R, K) from the last ``n_ticks`` draws of each row of ``normals``:
-        sigma = ARW / sqrt(dt)."""
+        """Rate noise averaged over one tick (R, K) from the last ``n_ticks`` draws of each row of ``normals``
+        (scaled in place): sigma = ARW / sqrt(dt)."""
         return noise.white_from_normals(normals[:, normals.shape[1] - n_ticks:], self.arw_rad_per_sqrt_s, dt_s)
 
 
@@ -77,5 +77,5 @@ class AccelModel:
 
     def noise(self, normals: np.ndarray, n_ticks: int, dt_s: float) -> np.ndarray:
         """White noise averaged over one tick (R, K, 3) from 3 K standard normals per row of ``normals`` (drawn
-        in the order of ``standard_normal((K, 3))``)."""
+        in the order of ``standard_normal((K, 3))``; scaled in place)."""
         return noise.white_from_normals(normals.reshape(-1, n_ticks, 3), self.noise_m_s2_per_sqrt_hz, dt_s)

@@ -37,8 +37,8 @@ def white(rng: np.random.Generator, shape: tuple[int, ...], density: float, dt_s
 
 
 def white_from_normals(w: np.ndarray, density: float, dt_s: float) -> np.ndarray:
-    """:func:`white` from given standard normals ``w``."""
-    return (density / math.sqrt(dt_s)) * w
+    """:func:`white` from given standard normals ``w``, scaled in place (``w`` is returned)."""
+    return np.multiply(density / math.sqrt(dt_s), w, out=w)
 
 
 def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
