@@ -38,12 +38,12 @@ from nodesim.chain.compiled.mac_kernel import time_row, transfer
 DONE, NEED_DRAWS, INBOX_FULL = 0, 1, 2
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _less(ta, ea, tb, eb) -> bool:
     return ta < tb or (ta == tb and ea < eb)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _push(h_t, h_e, h_n, size, t, e, n) -> int:
     i = size
     h_t[i], h_e[i], h_n[i] = t, e, n
@@ -58,7 +58,7 @@ def _push(h_t, h_e, h_n, size, t, e, n) -> int:
     return size + 1
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _pop(h_t, h_e, h_n, size):
     t, n = h_t[0], h_n[0]
     size -= 1
@@ -79,7 +79,7 @@ def _pop(h_t, h_e, h_n, size):
     return t, n, size
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _deliver(inbox, r, receiver, seq, sender, tick, arrival) -> bool:
     i_seq, i_src, i_tick, i_arr, i_count = inbox
     c = i_count[r, receiver]
@@ -91,7 +91,7 @@ def _deliver(inbox, r, receiver, seq, sender, tick, arrival) -> bool:
     return True
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _swap(inbox, r, n, i, j) -> None:
     i_seq, i_src, i_tick, i_arr, _ = inbox
     i_seq[r, n, i], i_seq[r, n, j] = i_seq[r, n, j], i_seq[r, n, i]
@@ -100,7 +100,7 @@ def _swap(inbox, r, n, i, j) -> None:
     i_arr[r, n, i], i_arr[r, n, j] = i_arr[r, n, j], i_arr[r, n, i]
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
     True if a fresh packet was taken."""

@@ -10,7 +10,7 @@ realization r, as :class:`nodesim.chain.node.ChainNode` does it:
         psi_ref = psi_hat_(n-s)[j] + omega transfer                                  (thesis eq 3.29)
         R = P_(n-s)[j] + (transfer sigma_rate)^2 + sigma_off^2                        (thesis digest 2.6)
     record yaw, P_yy and bias.
-The filter arithmetic is :mod:`.float_kernel` or :mod:`.fixed_kernel` (``fixed``), inlined, on the state of
+The filter arithmetic is :mod:`.float_kernel` or :mod:`.fixed_kernel` (``fixed``), on the state of
 that kind (``fstate`` (R, 5) float64 or ``istate`` (R, 5) int64 raws; the other one is a placeholder).
 """
 
@@ -22,7 +22,7 @@ from nodesim.chain.compiled import fixed_kernel as fxk
 from nodesim.chain.compiled import float_kernel as flk
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _predict(fixed, fst, ist, rate, fparams, iparams, counts) -> None:
     if fixed:
         fxk.predict(ist, rate, iparams, counts)
@@ -30,7 +30,7 @@ def _predict(fixed, fst, ist, rate, fparams, iparams, counts) -> None:
         flk.predict(fst, rate, fparams, counts)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _update(fixed, fst, ist, ref, var, fparams, iparams, counts) -> None:
     if fixed:
         fxk.update(ist, ref, var, iparams, counts)
@@ -38,7 +38,7 @@ def _update(fixed, fst, ist, ref, var, fparams, iparams, counts) -> None:
         flk.update(fst, ref, var, fparams, counts)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _outputs(fixed, fst, ist, fparams, iparams):
     """(yaw, P_yy, bias) as the filter reports them."""
     if fixed:

@@ -21,9 +21,11 @@ policy (HALF_EVEN, SATURATE) is compiled; :func:`kernel_params` rejects any othe
 :mod:`firmware_model.fixedpoint` allows raise :class:`~nodesim.errors.NodesimError` at the first use, where
 the class raises ``FirmwareError``.
 
-The primitives and the raw steps are inlined at numba's IR level (``inline="always"``): an array passed to a
-non-inlined njit function is reference-counted on every call, which made each step ~5x slower (measured:
-~300 ns -> ~55 ns per predict).  A caller's njit loop calls ``predict``/``update`` directly.
+The primitives and the raw steps are plain njit functions called from the caller's compiled loop.  They were
+inlined at numba's IR level (``inline="always"``) until 2026-12-01: that made the compiled engine take ~3 min
+to compile on a fresh machine against ~40 s without it, and measured no faster (2000 predict+update steps of
+one filter: 0.25 ms without, 0.41 ms with, on a noisy host; the chain benchmarks within their noise).
+A caller's njit loop calls ``predict``/``update`` directly.
 
 The class applies an update mask after computing every lane: its overflow counts include lanes whose update
 is discarded.  ``update`` here is the class's update of one lane with the mask True.
@@ -115,7 +117,7 @@ def counts_dict(counts) -> dict[str, int]:
 
 
 # ---- primitives on int64 scalars ---------------------------------------------------------------------------
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sat(x, frac_in, w, f, counts, site):
     """fixedpoint._requantize with HALF_EVEN and SATURATE of the int64 intermediate ``x``."""
     hi = (np.int64(1) << (w - 1)) - 1
@@ -145,7 +147,7 @@ def _sat(x, frac_in, w, f, counts, site):
     return x
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _aligned(a, fa, b, fb, sign):
     """((int64_t)a << sa) +/- ((int64_t)b << sb) in the finer format; returns (sum, its frac bits)."""
     if abs(fa - fb) > MAX_ALIGN:
@@ -155,24 +157,24 @@ def _aligned(a, fa, b, fb, sign):
     return (xa + xb if sign > 0 else xa - xb), fm
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _add(a, fa, b, fb, p, i, counts, site):
     x, fm = _aligned(a, fa, b, fb, 1)
     return _sat(x, fm, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sub(a, fa, b, fb, p, i, counts, site):
     x, fm = _aligned(a, fa, b, fb, -1)
     return _sat(x, fm, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _mul(a, fa, b, fb, p, i, counts, site):
     return _sat(a * b, fa + fb, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _div(a, fa, b, fb, p, i, counts, site):
     """fixedpoint.div with HALF_EVEN and SATURATE."""
     w, f = p[i], p[i + 1]
@@ -196,14 +198,14 @@ def _div(a, fa, b, fb, p, i, counts, site):
     return _sat(q, f, w, f, counts, site)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _wrap(x, w):
     """Two's-complement wrap into ``w`` bits (the binary angle)."""
     x &= (np.int64(1) << w) - 1
     return x - ((x >> (w - 1)) << w)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _from_float_sat(v, w, f, counts, site):
     """fixedpoint.from_float (HALF_EVEN, SATURATE) of one finite double."""
     y = np.rint(math.ldexp(v, f))
@@ -218,7 +220,7 @@ def _from_float_sat(v, w, f, counts, site):
     return np.int64(y)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _from_float_wrap(v, w, f):
     """fixedpoint.from_float (HALF_EVEN, WRAP, no counter) of one finite double: the exact residue modulo 2**w.
     A value whose scaling overflows to infinity gives 0, as the class does (fmod(inf) = NaN, cast to INT64_MIN
@@ -232,13 +234,13 @@ def _from_float_wrap(v, w, f):
     return _wrap(np.int64(np.fmod(y, math.ldexp(1.0, w))), w)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _to_float(raw, f):
     return math.ldexp(float(raw), -f)
 
 
 # ---- the filter ----------------------------------------------------------------------------------------------
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _predict_raw(state, rate_raw, params, counts):
     """FixedYawFilter.predict_raw of one lane, the gyro rate already a raw word in ``formats.rate``."""
     p = params
@@ -257,7 +259,7 @@ def _predict_raw(state, rate_raw, params, counts):
     state[I_YAW], state[I_PYY], state[I_PYB], state[I_PBB] = new_yaw, max(y, 1), yb, max(bb, 1)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def predict(state, rate_rad_s, params, counts):
     """FixedYawFilter.predict of one lane: the rate in rad/s crosses into Q deg/s (site "gyro rate")."""
     v = rate_rad_s * RAD_TO_DEG
@@ -266,7 +268,7 @@ def predict(state, rate_rad_s, params, counts):
     _predict_raw(state, _from_float_sat(v, params[W_RATE], params[W_RATE + 1], counts, S_GYRO), params, counts)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _update_raw(state, ref_raw, r_raw, params, counts):
     """FixedYawFilter.update_raw of one lane (mask True): reference as a binary angle, variance in P_yy's format."""
     p = params
@@ -287,7 +289,7 @@ def _update_raw(state, ref_raw, r_raw, params, counts):
     state[I_YAW], state[I_BIAS], state[I_PYY], state[I_PYB], state[I_PBB] = new_yaw, new_bias, max(yy, 1), yb, max(bb, 1)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def update(state, ref_rad, var_rad2, params, counts):
     """FixedYawFilter.update of one lane with the mask True."""
     if not (math.isfinite(ref_rad) and math.isfinite(var_rad2)):
@@ -302,17 +304,17 @@ def update(state, ref_rad, var_rad2, params, counts):
     _update_raw(state, ref_raw, r_raw, params, counts)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def yaw_rad(state, params):
     """FixedYawFilter.yaw_rad of one lane (binary angle in radians, [-pi, pi))."""
     return _to_float(state[I_YAW], params[W_YAW + 1]) * TURN_RAD
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def bias_rad_s(state, params):
     return _to_float(state[I_BIAS], params[W_BIAS + 1]) / RAD_TO_DEG
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def yaw_variance_rad2(state, params):
     return _to_float(state[I_PYY], params[W_YY + 1]) / RAD2_TO_DEG2

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def time_row(chan, link: int, t: float) -> int:
     """Row of ``link``'s per-time tables (PER, margin) that holds time ``t``."""
     rows, step = chan[2][link], chan[3][link]
@@ -38,7 +38,7 @@ def time_row(chan, link: int, t: float) -> int:
     return min(max(g, 0), rows - 1)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _in_outage(chan, link: int, t: float) -> bool:
     out = chan[7]
     for i in range(chan[8][link]):
@@ -47,7 +47,7 @@ def _in_outage(chan, link: int, t: float) -> bool:
     return False
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: float, chan, draws, radio,
              stats, mac):
     """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, exhausted)."""
