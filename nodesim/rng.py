@@ -129,26 +129,28 @@ VECTOR_MIN_KEYS = 16
 """Below this many keys numpy's own SeedSequence is faster than the vectorised hash (~0.2 ms fixed cost)."""
 
 
-def generators(seed: int, keys: np.ndarray) -> list[np.random.Generator]:
-    """``[default_rng(SeedSequence(seed, spawn_key=k)) for k in keys]``: the same generators, built through
-    :func:`seed_states` when there are at least :data:`VECTOR_MIN_KEYS` of them (~15x faster per key)."""
+def seed_words(seed: int, keys: np.ndarray) -> np.ndarray:
+    """``SeedSequence(seed, spawn_key=k).generate_state(4, uint64)`` for every row k of ``keys``, (M, 4): numpy's
+    own below :data:`VECTOR_MIN_KEYS` keys, :func:`seed_states` from there on (the same words)."""
     keys = np.asarray(keys, dtype=np.int64)
-    if len(keys) < VECTOR_MIN_KEYS:
-        return [np.random.default_rng(np.random.SeedSequence(seed, spawn_key=tuple(int(x) for x in k))) for k in keys]
-    return [np.random.Generator(np.random.PCG64(_Precomputed(s))) for s in seed_states(seed, keys)]
+    if len(keys) >= VECTOR_MIN_KEYS:
+        return seed_states(seed, keys)
+    words = np.zeros((len(keys), POOL_WORDS), dtype=np.uint64)
+    for i, k in enumerate(keys):
+        words[i] = np.random.SeedSequence(seed, spawn_key=tuple(int(x) for x in k)).generate_state(4, np.uint64)
+    return words
+
+
+def generators(seed: int, keys: np.ndarray) -> list[np.random.Generator]:
+    """``[default_rng(SeedSequence(seed, spawn_key=k)) for k in keys]``: the same generators, seeded through
+    :func:`seed_words` (~15x faster per key for many keys)."""
+    return [np.random.Generator(np.random.PCG64(_Precomputed(w))) for w in seed_words(seed, keys)]
 
 
 def pcg64_states(seed: int, keys: np.ndarray) -> np.ndarray:
     """The PCG64 states (M, 4) of ``generators(seed, keys)``, to draw from with :mod:`nodesim.pcg64_kernel`
     (the same numbers as those generators, without building them)."""
-    keys = np.asarray(keys, dtype=np.int64)
-    if len(keys) >= VECTOR_MIN_KEYS:
-        words = seed_states(seed, keys)
-    else:
-        words = np.zeros((len(keys), POOL_WORDS), dtype=np.uint64)
-        for i, k in enumerate(keys):
-            words[i] = np.random.SeedSequence(seed, spawn_key=tuple(int(x) for x in k)).generate_state(4, np.uint64)
-    return pcg64_kernel.seeded(words)
+    return pcg64_kernel.seeded(seed_words(seed, keys))
 
 
 @dataclass(frozen=True)
@@ -183,7 +185,8 @@ class RunStreams:
         """(realizations, n): the first ``n`` ``standard_normal()`` draws of each realization's :meth:`sensor`
         stream, drawn in one compiled call."""
         out = np.empty((realizations, n))
-        pcg64_kernel.fill_normals(pcg64_states(self.seed, self._keys(realizations, *self._sensor_path(node, stream))), out)
+        keys = self._keys(realizations, *self._sensor_path(node, stream))
+        pcg64_kernel.fill_normals(pcg64_states(self.seed, keys), out)
         return out
 
     def link(self, realization: int, link: int) -> np.random.Generator:
