@@ -49,17 +49,13 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     """
     if sigma == 0.0:
         return np.zeros(shape)
-    return _ar1(rng.standard_normal(shape), sigma, tau_s, dt_s)
+    return gauss_markov_from_normals(rng.standard_normal(shape), sigma, tau_s, dt_s)
 
 
 def gauss_markov_from_normals(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
-    """:func:`gauss_markov` driven by given standard normals ``w`` (rows of (R, n), e.g. each realization's
-    stream): the same numbers as one :func:`gauss_markov` call per row on the stream that drew them."""
-    return _ar1(w, sigma, tau_s, dt_s)
-
-
-def _ar1(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
-    """x[0] = sigma w[0], x[k] = phi x[k-1] + sigma sqrt(1 - phi^2) w[k], phi = exp(-dt / tau), last axis."""
+    """:func:`gauss_markov` driven by given standard normals ``w`` (e.g. rows of (R, n), one realization's
+    stream each), along the last axis: x[0] = sigma w[0], x[k] = phi x[k-1] + sigma sqrt(1 - phi^2) w[k],
+    phi = exp(-dt / tau)."""
     phi = math.exp(-dt_s / tau_s)
     drive = w * (sigma * math.sqrt(1.0 - phi * phi))
     drive[..., 0] = sigma * w[..., 0]
