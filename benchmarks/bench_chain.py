@@ -13,8 +13,11 @@
 * ``batched_mc_speedup``: R = 1000 realizations of a 20-node chain (the perf chain's links, float filters,
   ``MC_DURATION_S`` simulated) in one batched run versus one by one, on the default (compiled) engine; the
   one-by-one time is EXTRAPOLATED from ``MC_SAMPLE`` single runs (first_realization = 0..MC_SAMPLE-1) x 1000 /
-  MC_SAMPLE.  Goal >= 20.  Each side is timed after a warm-up call of its own kind, best of 3; the batched
-  run's first call (fresh memory) is reported too (``batched_mc_speedup_first_call``).
+  MC_SAMPLE.  Goal >= 20.  Each side is timed after a warm-up call of its own kind, best of ``MC_REPEAT``; the
+  batched run's first call (fresh memory) is reported too (``batched_mc_speedup_first_call``).  The batch runs
+  its realizations on every CPU this process may use (``batched_mc_threads``, :mod:`nodesim.threads`), as a
+  user's ``--realizations`` run does; a single run has one realization and one thread.
+  ``batched_mc_speedup_one_thread``: the same batch with ``NODESIM_THREADS=1`` (what batching alone buys).
   ``batched_mc_speedup_event_engine``: the same on the SimPy engine.
 * ``chain1000_24h_wall_s_extrapolated``: a 1000-node chain of the perf scenario on the compiled engine for
   the two durations of ``BIG_S`` (best of 2 each), EXTRAPOLATED to 24 h with the marginal cost per simulated second between
@@ -24,8 +27,12 @@
 
 from importlib import resources
 
+import os
+from contextlib import contextmanager
+
 import simpy
 
+from nodesim import threads
 from nodesim.bench import best_time_s, chain_batched_vs_loop
 from nodesim.scenario import load_scenario
 
@@ -37,6 +44,7 @@ MC_R = 1000
 MC_NODES = 20
 MC_DURATION_S = 120.0
 MC_SAMPLE = 5
+MC_REPEAT = 5  # best of: this host's timings of the same call vary by up to 2x
 BIG_NODES = 1000
 BIG_S = (240.0, 960.0)  # far enough apart that the marginal cost stands out of the set-up's noise
 DAY_S = 24 * 3600.0
@@ -111,11 +119,25 @@ def chain100_1h_overhead_vs_skeleton() -> dict:
     }
 
 
-def _batched_vs_one_by_one(base, repeat: int) -> tuple[float, float, float, float]:
+@contextmanager
+def _threads(n: int):
+    """``NODESIM_THREADS=n`` inside the block."""
+    before = os.environ.get(threads.ENV)
+    os.environ[threads.ENV] = str(n)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[threads.ENV]
+        else:
+            os.environ[threads.ENV] = before
+
+
+def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[float, float, float, float, float]:
     """(one-by-one time for MC_R extrapolated from MC_SAMPLE runs, batched time, single-run time, the batched
-    run's first call).  Both are timed after a warm-up call of their own kind (what timeit does), best of
-    ``repeat`` each (the same for both sides): the first batched call in a process also pays the first touch of
-    its ~0.5 GB of fresh arrays, kept apart."""
+    run's first call, batched time on one thread (NaN unless ``one_thread``)).  Each is timed after a warm-up call of its own kind (what
+    timeit does), best of ``repeat`` (the same for every side): the first batched call in a process also pays
+    the first touch of its ~0.5 GB of fresh arrays, kept apart."""
     from nodesim.chain import simulate_chain
 
     singles = [base.with_overrides(**{"simulation.first_realization": r}) for r in range(MC_SAMPLE)]
@@ -124,18 +146,26 @@ def _batched_vs_one_by_one(base, repeat: int) -> tuple[float, float, float, floa
     batched = base.with_overrides(**{"simulation.realizations": MC_R})
     t_first = best_time_s(lambda: simulate_chain(batched), repeat=1)
     t_batch = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
-    return t_one * MC_R, t_batch, t_one, t_first
+    t_batch_1 = float("nan")
+    if one_thread:
+        with _threads(1):
+            t_batch_1 = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
+    return t_one * MC_R, t_batch, t_one, t_first, t_batch_1
 
 
 def batched_mc_speedup() -> dict:
     base = _sliced(_scenario("perf", "chain100_1h.toml"), MC_DURATION_S).with_overrides(
         **{"chain.nodes": MC_NODES, "filter.implementation": "float"})
-    one, batch, single, first = _batched_vs_one_by_one(base, repeat=3)
-    one_ev, batch_ev, single_ev, _ = _batched_vs_one_by_one(_event_engine(base), repeat=1)  # ~10 s a side
+    one, batch, single, first, batch_1 = _batched_vs_one_by_one(base, repeat=MC_REPEAT)
+    with _threads(1):  # the SimPy engine's batch is numpy over realizations, ~10 s a side
+        one_ev, batch_ev, single_ev, _, _ = _batched_vs_one_by_one(_event_engine(base), 1, False)
     return {
         "batched_mc_speedup": one / batch,
+        "batched_mc_speedup_one_thread": one / batch_1,
+        "batched_mc_threads": len(threads.chunks(MC_R)),
         "batched_mc_speedup_first_call": one / first,
         "batched_mc_1000_realizations_s": batch,
+        "batched_mc_1000_realizations_one_thread_s": batch_1,
         "batched_mc_1000_realizations_first_call_s": first,
         "batched_mc_one_by_one_1000_s_extrapolated": one,
         "batched_mc_single_run_s": single,

@@ -115,7 +115,7 @@ def seeded(words: np.ndarray) -> np.ndarray:
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fill_normals(states: np.ndarray, out: np.ndarray) -> None:
     """Row i of ``out`` (M, n) = the next n ``standard_normal()`` draws of stream i (advanced in place)."""
     for i in range(out.shape[0]):
@@ -125,7 +125,7 @@ def fill_normals(states: np.ndarray, out: np.ndarray) -> None:
         states[i, 0], states[i, 1] = hi, lo
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fill_uniforms(states: np.ndarray, rows: np.ndarray, buffer: np.ndarray, start: np.ndarray,
                   stop: np.ndarray) -> None:
     """``buffer[start[j]:stop[j]]`` = the next ``random()`` draws of stream ``rows[j]`` (advanced in place)."""

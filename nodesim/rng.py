@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.random.bit_generator import ISeedSequence
 
-from nodesim import pcg64_kernel
+from nodesim import pcg64_kernel, threads
 
 SENSOR_STREAMS: tuple[str, ...] = ("gyro", "accel", "encoder", "magnetometer", "clock")
 """Per-node stream names, in spawn order.  Append new names at the end only."""
@@ -186,7 +186,8 @@ class RunStreams:
         stream, drawn in one compiled call."""
         out = np.empty((realizations, n))
         keys = self._keys(realizations, *self._sensor_path(node, stream))
-        pcg64_kernel.fill_normals(pcg64_states(self.seed, keys), out)
+        states = pcg64_states(self.seed, keys)
+        threads.map_chunks(lambda r0, r1: pcg64_kernel.fill_normals(states[r0:r1], out[r0:r1]), realizations)
         return out
 
     def link(self, realization: int, link: int) -> np.random.Generator:

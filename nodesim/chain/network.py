@@ -24,6 +24,7 @@ from functools import partial
 import numpy as np
 import simpy
 
+from nodesim import threads
 from nodesim.chain import faults
 from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.links import LazyStreams, LossDraws
@@ -251,8 +252,11 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
     azi = np.full((R, K), np.nan)
     first = int(np.searchsorted(node.sig.t_s, node.timeline.present_from_s))
     if first < K:
-        averaged_surveys(node.sig.specific_force[:, first:], node.yaw[:, first:], points, inc[:, first:],
-                         azi[:, first:])
+        def run(r0: int, r1: int) -> None:
+            averaged_surveys(node.sig.specific_force[r0:r1, first:], node.yaw[r0:r1, first:], points,
+                             inc[r0:r1, first:], azi[r0:r1, first:])
+
+        threads.map_chunks(run, R)
     return NodeRun(
         node_id=node.node_id,
         t_s=node.sig.t_s,

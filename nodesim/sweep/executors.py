@@ -25,6 +25,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Iterable, Iterator
 
+from nodesim import threads
 from nodesim.errors import NodesimError
 from nodesim.sweep.spec import RunTask
 from nodesim.sweep.tasks import RunRecord, execute, failed_record
@@ -45,6 +46,12 @@ def _immediate(task: RunTask) -> RunRecord | None:
     return execute(None, task) if task.invalid is not None else None
 
 
+def _one_thread_per_worker() -> None:
+    """The workers already use every CPU: a batched run in a worker keeps its realizations on one thread
+    (:mod:`nodesim.threads`)."""
+    os.environ[threads.ENV] = "1"
+
+
 class LocalExecutor:
     """A process pool on this machine (``--workers N``, default: the number of CPUs)."""
 
@@ -63,7 +70,7 @@ class LocalExecutor:
             ctx.set_forkserver_preload(["nodesim.sweep.tasks", "nodesim.runner"])
         else:
             ctx = mp.get_context("spawn")
-        return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_one_thread_per_worker)
 
     def imap(self, fn: RunFn, tasks: Iterable[RunTask]) -> Iterator[RunRecord]:
         queue: deque = deque((t, 0) for t in tasks)

@@ -24,7 +24,7 @@ from typing import Callable
 
 import numpy as np
 
-from nodesim import pcg64_kernel
+from nodesim import pcg64_kernel, threads
 from nodesim.chain.compiled import events as ev
 from nodesim.chain.compiled import filters, fixed_kernel, float_kernel
 from nodesim.chain.mac import LinkStats
@@ -121,9 +121,15 @@ class _Links:
                 buf[start[r, i]:start[r, i] + kept[r, i]] = self.buffer[self.start[r, i]:self.start[r, i] + kept[r, i]]
             rows = np.flatnonzero(self.sizes[:, i] > kept[:, i])
             if rows.size:
-                pcg64_kernel.fill_uniforms(self._states(i), rows, buf, start[rows, i] + kept[rows, i],
-                                           start[rows, i] + self.sizes[rows, i])
+                self._draw(i, rows, buf, start[rows, i] + kept[rows, i], start[rows, i] + self.sizes[rows, i])
         self.buffer, self.start = buf, start
+
+    def _draw(self, i: int, rows: np.ndarray, buf: np.ndarray, begin: np.ndarray, end: np.ndarray) -> None:
+        """``buf[begin[j]:end[j]]`` = the next uniforms of link ``i``'s stream ``rows[j]`` (ranges of rows on
+        threads: each stream is advanced by one of them)."""
+        states = self._states(i)
+        threads.map_chunks(lambda a, b: pcg64_kernel.fill_uniforms(states, rows[a:b], buf, begin[a:b], end[a:b]),
+                           rows.size)
 
     def _states(self, i: int) -> np.ndarray:
         """Link ``i``'s PCG64 states (R, 4), where its draws stand (built on first use)."""
@@ -158,7 +164,8 @@ class _Links:
 
 
 def _resolve(net, links: _Links):
-    """Phase 1 (:mod:`.events`), started again with more draws or inbox slots until it completes."""
+    """Phase 1 (:mod:`.events`) over ranges of realizations on threads (:mod:`nodesim.threads`), started again
+    with more draws or inbox slots until every range completes."""
     N, R = net.n_nodes, net.R
     c, m = net.scenario.chain, net.scenario.mac
     K = np.array([n.sig.t_s.size for n in net.nodes], dtype=np.int64)
@@ -188,16 +195,23 @@ def _resolve(net, links: _Links):
         out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
                np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32), np.full((R, Kmax), np.nan),
                np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
-        need = np.zeros(3, np.int64)
-        status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
-                               links.margin, links.draws(), radio, stats, mac, inbox, np.full((R, N), -1, np.int64),
-                               np.zeros((R, N), np.int64), out, need, np.zeros(N, dtype=bool))
-        if status == ev.DONE:
+        draws, last_seq, streak = links.draws(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
+
+        def run(r0: int, r1: int, draws=draws, radio=radio, stats=stats, inbox=inbox, out=out):
+            need = np.zeros(3, np.int64)
+            status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
+                                   links.margin, draws, radio, stats, mac, inbox, last_seq, streak, out, need,
+                                   np.zeros(N, dtype=bool), r0, r1)
+            return status, need
+
+        ended = threads.map_chunks(run, R)
+        if all(status == ev.DONE for status, _ in ended):
             return order[0].size, out, radio, stats
-        if status == ev.NEED_DRAWS:
-            links.more(int(need[0]), int(need[1]), (int(need[2]) + 1) / order[0].size)
-        else:
+        if any(status == ev.INBOX_FULL for status, _ in ended):
             slots *= 2
+        for status, need in ended:
+            if status == ev.NEED_DRAWS:
+                links.more(int(need[0]), int(need[1]), (int(need[2]) + 1) / order[0].size)
 
 
 def _run_node(net, n: int, out) -> None:
@@ -226,7 +240,6 @@ def _run_node(net, n: int, out) -> None:
     # run_node takes a float and an integer filter's arrays (one compiled signature); the unused one is a stand-in
     fstate, fparams = (np.zeros((1, 5)), np.zeros(7)) if fixed else (state, params)
     istate, iparams = (state, params) if fixed else (np.zeros((1, 5), np.int64), np.zeros(1, np.int64))
-    counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)
     enc_ref = np.zeros((R, K))
     if n == 0:
         t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
@@ -236,11 +249,17 @@ def _run_node(net, n: int, out) -> None:
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     c = net.scenario.chain
-    filters.run_node(fixed, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end, n == 0,
-                     enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K],
-                     tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above),
-                     net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
-                     node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var)
+    up = (tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
+
+    def run(r0: int, r1: int) -> np.ndarray:
+        counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)  # per range of realizations, summed below
+        filters.run_node(fixed, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end,
+                         n == 0, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K], *up,
+                         net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
+                         node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
+        return counts
+
+    counts = sum(threads.map_chunks(run, R))
     for site, count in fixed_kernel.counts_dict(counts).items():
         node.kf.ctx.counter.record(site, count)
 

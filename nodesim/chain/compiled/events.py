@@ -21,7 +21,9 @@ node 1 is the top node):
 Sequence numbers are the event counter: they increase with send time, which is all the selection compares.
 The order of the events is the same in every realization (:func:`event_order`, once), and realizations share
 no state, so :func:`run_events` runs them one after the other over that order, each with its state together in
-memory (arrays are realization-major).
+memory (arrays are realization-major), and ranges of realizations can run on parallel threads
+(:mod:`nodesim.threads`).  The frame and selection kernels are inlined at numba's IR level: a call passing
+~26 arrays cost as much as the work (phase 1 of 1000 realizations x 20 nodes x 2 min: 1.12 s -> 0.63 s).
 Status codes: 0 done; 1 a lane ran out of buffered draws (``need`` = link, realization, event index); 2 an
 inbox is full.
 """
@@ -100,7 +102,7 @@ def _swap(inbox, r, n, i, j) -> None:
     i_arr[r, n, i], i_arr[r, n, j] = i_arr[r, n, j], i_arr[r, n, i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
     True if a fresh packet was taken."""
@@ -171,20 +173,22 @@ def event_order(T, K, dead_at):
     return nodes, ticks
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, nogil=True)
 def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, chan, margin, draws, radio, stats,
-               mac, inbox, last_seq, streak, out, need, started):
-    """Run every event of ``order`` (from :func:`event_order`) in every realization (module docstring).
+               mac, inbox, last_seq, streak, out, need, started, r_first, r_end):
+    """Run every event of ``order`` (from :func:`event_order`) in realizations ``r_first`` .. ``r_end - 1``
+    (module docstring; disjoint ranges may run on parallel threads, each with its own ``need`` and ``started``).
     ``nodes_cfg`` = (processing_s, max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,)
     int, after_failures, min_margin_db); ``out`` = (running (K, N), applied (R, N, K), age, src_node, src_tick
-    (R, N, K), encoder t_read (R, K), stale (R, N), duplicate (R, N)).  Returns a status code."""
-    N, R = T.shape[1], last_seq.shape[0]
+    (R, N, K), encoder t_read (R, K), stale (R, N), duplicate (R, N)); ``running`` is the same in every
+    realization and written by realization 0.  Returns a status code."""
+    N = T.shape[1]
     ev_node, ev_tick = order
     processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
     surface = N
-    for r in range(R):
+    for r in range(r_first, r_end):
         started[:] = False
         for e in range(ev_node.shape[0]):
             n, k = ev_node[e], ev_tick[e]
@@ -195,7 +199,8 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
             if not started[n]:
                 started[n] = True
                 continue
-            running[k, n] = True
+            if r == 0:
+                running[k, n] = True
             ready = t
             valid = every_tick
             if n == 0:

@@ -12,6 +12,8 @@ realization r, as :class:`nodesim.chain.node.ChainNode` does it:
     record yaw, P_yy and bias.
 The filter arithmetic is :mod:`.float_kernel` or :mod:`.fixed_kernel` (``fixed``), on the state of
 that kind (``fstate`` (R, 5) float64 or ``istate`` (R, 5) int64 raws; the other one is a placeholder).
+The three dispatchers are inlined into the tick loop at numba's IR level (a call passing five arrays cost
+more than a float predict: 1000 realizations x 228 ticks, float 8.8 -> 5.4 ms, fixed 42 -> 33 ms).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from nodesim.chain.compiled import fixed_kernel as fxk
 from nodesim.chain.compiled import float_kernel as flk
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _predict(fixed, fst, ist, rate, fparams, iparams, counts) -> None:
     if fixed:
         fxk.predict(ist, rate, iparams, counts)
@@ -30,7 +32,7 @@ def _predict(fixed, fst, ist, rate, fparams, iparams, counts) -> None:
         flk.predict(fst, rate, fparams, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _update(fixed, fst, ist, ref, var, fparams, iparams, counts) -> None:
     if fixed:
         fxk.update(ist, ref, var, iparams, counts)
@@ -38,7 +40,7 @@ def _update(fixed, fst, ist, ref, var, fparams, iparams, counts) -> None:
         flk.update(fst, ref, var, fparams, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _outputs(fixed, fst, ist, fparams, iparams):
     """(yaw, P_yy, bias) as the filter reports them."""
     if fixed:
@@ -46,15 +48,15 @@ def _outputs(fixed, fst, ist, fparams, iparams):
     return flk.yaw_rad(fst, fparams), flk.yaw_variance_rad2(fst, fparams), flk.bias_rad_s(fst, fparams)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, nogil=True)
 def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, is_top, enc_ref, enc_var,
              applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
-             yaw, var, bias, ref_yaw, ref_var) -> None:
-    """Ticks ``k_first`` .. ``k_end - 1`` of one node (module docstring); ``up_*`` = (node above, node two
-    above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference came from), -1
-    for none."""
-    R = fstate.shape[0] if not fixed else istate.shape[0]
-    for r in range(R):  # realizations are independent: one after the other, each over its ticks
+             yaw, var, bias, ref_yaw, ref_var, r_first, r_end) -> None:
+    """Ticks ``k_first`` .. ``k_end - 1`` of one node in realizations ``r_first`` .. ``r_end - 1`` (module
+    docstring; disjoint ranges may run on parallel threads, each with its own ``counts``); ``up_*`` = (node
+    above, node two above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference
+    came from), -1 for none."""
+    for r in range(r_first, r_end):  # realizations are independent: one after the other, each over its ticks
         fst, ist = fstate[r if not fixed else 0], istate[r if fixed else 0]
         for k in range(k_first, k_end):
             _predict(fixed, fst, ist, gyro[r, k], fparams, iparams, counts)

@@ -47,7 +47,7 @@ def _in_outage(chan, link: int, t: float) -> bool:
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # into phase 1's loop (events module docstring)
 def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: float, chan, draws, radio,
              stats, mac):
     """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, exhausted)."""

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, points: int, inc_out: np.ndarray,
                      azi_out: np.ndarray) -> None:
     """``force`` (R, K, 3) sensor-frame specific force, ``yaw_rad`` (R, K) -> moving-averaged inclination and
