@@ -30,9 +30,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from firmware_model.fixed_filter import FixedFormats
-from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
 from nodesim.allan import AllanNoise, overlapping_adev, read_noise
+from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.estimator import filter_config, fixed_formats
 from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
@@ -235,9 +235,8 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
     have = np.isfinite(yaw)
     if have.any():
         first = int(np.argmax(have))
-        i_raw, a_raw = resolve_survey(force[first:], yaw[first:])
-        inc[first:] = trailing_moving_average(i_raw, setup.moving_average_points)
-        azi[first:] = circular_moving_average(a_raw, setup.moving_average_points)
+        averaged_surveys(np.ascontiguousarray(force[None, first:]), yaw[None, first:], setup.moving_average_points,
+                         inc[None, first:], azi[None, first:])  # what a chain run reports, computed the same way
     return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held,
                       kf.overflow_counts if kf is not None else {})
 

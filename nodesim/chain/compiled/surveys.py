@@ -1,12 +1,16 @@
-"""The surveys a chain run reports, resolved and moving-averaged in one compiled pass per node.
+"""The surveys a chain run (and a replay) reports, resolved and moving-averaged in one compiled pass per node.
 
 For every realization r and tick k (thesis eqs 1.1-1.3, :func:`firmware_model.survey.resolve`):
-    tau' = atan2(f'_y, f'_x),  I = atan2(hypot(f'_x, f'_y), f'_z),  A = (tau' + psi) mod 2 pi,
+    tau' = atan2(f'_y, f'_x),  I = atan2(h, f'_z) with h = hypot(f'_x, f'_y),  A = (tau' + psi) mod 2 pi,
 then the firmware's trailing N-point moving average of I and the circular one of A (through cos A and sin A),
 the first N - 1 outputs averaging what has arrived (:func:`firmware_model.survey.trailing_moving_average`,
-:func:`~firmware_model.survey.circular_moving_average`).  The same operations in the same order as those numpy
-functions (running sums as ``cumsum`` forms them, the window as the difference of two of them), without their
-temporaries: tests/nodesim/test_chain_surveys.py compares the two.
+:func:`~firmware_model.survey.circular_moving_average`), as running sums (the window as the difference of two
+of them, as ``cumsum`` forms them).  The unit vector of A comes from rotating the sensor-frame one by psi
+(eq 1.1), without forming A:
+    cos A = (f'_x cos psi - f'_y sin psi) / h,   sin A = (f'_y cos psi + f'_x sin psi) / h
+(one atan2 and one remainder fewer per tick: ~30 % of this pass).  So I is the numpy functions' value bit for
+bit, the averaged A agrees with them to rounding (an angle error of ~1e-16 / |mean unit vector|), and chain
+runs and replays, which both call this, agree bit for bit: tests/nodesim/test_chain_surveys.py.
 """
 
 from __future__ import annotations
@@ -15,6 +19,16 @@ import math
 
 import numpy as np
 from numba import njit
+
+
+@njit(cache=True, inline="always")
+def _unit_azimuth(fx: float, fy: float, h: float, psi: float) -> tuple[float, float]:
+    """(cos A, sin A) of A = atan2(f'_y, f'_x) + psi (module docstring); h = hypot(f'_x, f'_y)."""
+    c, s = math.cos(psi), math.sin(psi)
+    if h > 0.0:
+        return (fx * c - fy * s) / h, (fy * c + fx * s) / h
+    a = np.remainder(np.arctan2(fy, fx) + psi, 2.0 * math.pi)  # no horizontal component: atan2's convention
+    return math.cos(a), math.sin(a)
 
 
 @njit(cache=True, nogil=True)
@@ -29,11 +43,11 @@ def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, points: int, inc_ou
         s_i = s_c = s_s = 0.0
         for k in range(K):
             fx, fy, fz = force[r, k, 0], force[r, k, 1], force[r, k, 2]
-            toolface = np.arctan2(fy, fx)
-            azimuth = np.remainder(toolface + yaw_rad[r, k], two_pi)
-            s_i += np.arctan2(np.hypot(fx, fy), fz)
-            s_c += np.cos(azimuth)
-            s_s += np.sin(azimuth)
+            h = np.hypot(fx, fy)
+            cos_a, sin_a = _unit_azimuth(fx, fy, h, yaw_rad[r, k])
+            s_i += np.arctan2(h, fz)
+            s_c += cos_a
+            s_s += sin_a
             sums[0, k], sums[1, k], sums[2, k] = s_i, s_c, s_s
             w_i, w_c, w_s = s_i, s_c, s_s
             if k >= points:
