@@ -209,9 +209,13 @@ def _resolve(net, links: _Links):
             return order[0].size, out, radio, stats
         if any(status == ev.INBOX_FULL for status, _ in ended):
             slots *= 2
+        short: dict[int, tuple[int, int]] = {}  # link -> (lane, event) of the range that ran out soonest
         for status, need in ended:
-            if status == ev.NEED_DRAWS:
-                links.more(int(need[0]), int(need[1]), (int(need[2]) + 1) / order[0].size)
+            link, lane, event = (int(x) for x in need)
+            if status == ev.NEED_DRAWS and (link not in short or event < short[link][1]):
+                short[link] = (lane, event)
+        for link, (lane, event) in short.items():
+            links.more(link, lane, (event + 1) / order[0].size)
 
 
 def _run_node(net, n: int, out) -> None:
