@@ -183,7 +183,7 @@ class RunStreams:
 
     def sensor_normals(self, realizations: int, node: int, stream: str, n: int) -> np.ndarray:
         """(realizations, n): the first ``n`` ``standard_normal()`` draws of each realization's :meth:`sensor`
-        stream, drawn in one compiled call."""
+        stream, drawn by the compiled PCG64 kernel (ranges of realizations on threads, :mod:`nodesim.threads`)."""
         out = np.empty((realizations, n))
         keys = self._keys(realizations, *self._sensor_path(node, stream))
         states = pcg64_states(self.seed, keys)

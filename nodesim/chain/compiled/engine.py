@@ -197,7 +197,7 @@ def _resolve(net, links: _Links):
                np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
         draws, last_seq, streak = links.draws(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
 
-        def run(r0: int, r1: int, draws=draws, radio=radio, stats=stats, inbox=inbox, out=out):
+        def run(r0: int, r1: int):  # called within this pass of the loop: the arrays above
             need = np.zeros(3, np.int64)
             status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
                                    links.margin, draws, radio, stats, mac, inbox, last_seq, streak, out, need,
