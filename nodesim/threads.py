@@ -6,15 +6,18 @@ writes disjoint rows and gives the same numbers, bit for bit, as one thread over
 time changes.  A run with fewer than ``2 x MIN_REALIZATIONS_PER_THREAD`` realizations stays on the calling
 thread.
 
-``NODESIM_THREADS`` sets how many threads (default: the CPUs this process may use); ``nodesim sweep`` runs its
-worker processes with 1, since they already use every CPU.
+``NODESIM_THREADS`` sets how many threads (default: the CPUs this process may use); :func:`limited` caps it for
+the runs a thread starts inside a block (``nodesim sweep`` runs each point with 1: its workers already use
+every CPU).
 """
 
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable, TypeVar
+from contextlib import contextmanager
+from typing import Callable, Iterator, TypeVar
 
 from nodesim.errors import NodesimError
 
@@ -26,18 +29,35 @@ _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
 
 
+_local = threading.local()  # .limit: the cap of :func:`limited` in this thread
+
+
 def thread_count() -> int:
-    """Threads a batched run may use: ``NODESIM_THREADS`` or the CPUs this process may run on."""
+    """Threads a batched run may use: ``NODESIM_THREADS`` or the CPUs this process may run on, capped by an
+    enclosing :func:`limited` of the calling thread."""
     text = os.environ.get(ENV, "").strip()
     if not text:
-        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    else:
+        try:
+            n = int(text)
+        except ValueError:
+            n = 0
+        if not 1 <= n <= 1024:
+            raise NodesimError(f"{ENV} must be an integer in [1, 1024] (got {text!r})")
+    limit = getattr(_local, "limit", None)
+    return n if limit is None else min(n, limit)
+
+
+@contextmanager
+def limited(threads: int) -> Iterator[None]:
+    """At most ``threads`` threads for the batched runs the calling thread starts inside the block."""
+    before = getattr(_local, "limit", None)
+    _local.limit = threads
     try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if not 1 <= n <= 1024:
-        raise NodesimError(f"{ENV} must be an integer in [1, 1024] (got {text!r})")
-    return n
+        yield
+    finally:
+        _local.limit = before
 
 
 def chunks(realizations: int, threads: int | None = None) -> list[tuple[int, int]]:

@@ -46,10 +46,11 @@ def _immediate(task: RunTask) -> RunRecord | None:
     return execute(None, task) if task.invalid is not None else None
 
 
-def _one_thread_per_worker() -> None:
-    """The workers already use every CPU: a batched run in a worker keeps its realizations on one thread
-    (:mod:`nodesim.threads`)."""
-    os.environ[threads.ENV] = "1"
+def execute_on_one_thread(fn: RunFn, task: RunTask, prior_attempts: int = 0) -> RunRecord:
+    """:func:`~nodesim.sweep.tasks.execute` with the run's realizations on one thread (:mod:`nodesim.threads`):
+    the workers already use every CPU (local pool, or Dask workers as processes or as threads)."""
+    with threads.limited(1):
+        return execute(fn, task, prior_attempts)
 
 
 class LocalExecutor:
@@ -70,7 +71,7 @@ class LocalExecutor:
             ctx.set_forkserver_preload(["nodesim.sweep.tasks", "nodesim.runner"])
         else:
             ctx = mp.get_context("spawn")
-        return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_one_thread_per_worker)
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
 
     def imap(self, fn: RunFn, tasks: Iterable[RunTask]) -> Iterator[RunRecord]:
         queue: deque = deque((t, 0) for t in tasks)
@@ -85,7 +86,7 @@ class LocalExecutor:
                 if rec is not None:
                     yield rec
                     continue
-                inflight[self._pool.submit(execute, fn, task, attempts)] = (task, attempts)
+                inflight[self._pool.submit(execute_on_one_thread, fn, task, attempts)] = (task, attempts)
             if not inflight:
                 continue
             done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
@@ -178,7 +179,7 @@ class DaskExecutor:
                 if rec is not None:
                     yield rec
                     continue
-                fut = self.client.submit(execute, fn, task, attempts, pure=False, key=f"nodesim-{task.run_id}-{attempts}-{tag}")
+                fut = self.client.submit(execute_on_one_thread, fn, task, attempts, pure=False, key=f"nodesim-{task.run_id}-{attempts}-{tag}")
                 meta[fut.key] = (task, attempts)
                 pending.add(fut)
             if not meta:

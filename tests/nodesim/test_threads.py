@@ -73,14 +73,25 @@ def test_a_batch_on_threads_equals_the_batch_on_one_thread(monkeypatch, name):
     assert not np.array_equal(two.nodes[-1].yaw_est_rad[0], two.nodes[-1].yaw_est_rad[40])
 
 
-def test_sweep_workers_keep_a_batch_on_one_thread(monkeypatch):
-    """The local pool's workers already use every CPU: each runs its batched runs on one thread."""
-    from nodesim.sweep.executors import LocalExecutor
+def test_limited_caps_the_calling_thread_only(monkeypatch):
+    monkeypatch.setenv(threads.ENV, "4")
+    seen = []
+    with threads.limited(1):
+        assert threads.thread_count() == 1 and threads.chunks(1000) == [(0, 1000)]
+        other = threading.Thread(target=lambda: seen.append(threads.thread_count()))
+        other.start()
+        other.join()
+    assert seen == [4] and threads.thread_count() == 4
+
+
+def test_a_sweep_point_runs_its_realizations_on_one_thread(monkeypatch):
+    """Both executors submit execute_on_one_thread: a point's batched run keeps to one thread in its worker
+    (local pool processes, or Dask workers that may be threads of the driver), and the driver's setting stays."""
+    from nodesim.sweep.executors import execute_on_one_thread
+    from nodesim.sweep.spec import RunTask
 
     monkeypatch.setenv(threads.ENV, "2")
-    pool = LocalExecutor(workers=1)._new_pool()
-    try:
-        assert pool.submit(threads.thread_count).result(timeout=120) == 1
-    finally:
-        pool.shutdown()
-    assert threads.thread_count() == 2  # the driver's own setting is untouched
+    task = RunTask(run_id="r0", point=0, seed_index=0, seed=1, params=(), scenario={}, max_attempts=1)
+    record = execute_on_one_thread(lambda t: {"threads": threads.thread_count()}, task)
+    assert record.status == "ok" and record.metrics == {"threads": 1}
+    assert threads.thread_count() == 2
