@@ -17,7 +17,8 @@
   batched run's first call (fresh memory) is reported too (``batched_mc_speedup_first_call``).  The batch runs
   its realizations on every CPU this process may use (``batched_mc_threads``, :mod:`nodesim.threads`), as a
   user's ``--realizations`` run does; a single run has one realization and one thread.
-  ``batched_mc_speedup_one_thread``: the same batch with ``NODESIM_THREADS=1`` (what batching alone buys).
+  ``batched_mc_speedup_one_thread``: the same batch on one thread (``threads.limited(1)``, as
+  ``NODESIM_THREADS=1`` would; what batching alone buys).
   ``batched_mc_speedup_event_engine``: the same on the SimPy engine.
 * ``chain1000_24h_wall_s_extrapolated``: a 1000-node chain of the perf scenario on the compiled engine for
   the two durations of ``BIG_S`` (best of 2 each), EXTRAPOLATED to 24 h with the marginal cost per simulated second between
@@ -26,9 +27,6 @@
 """
 
 from importlib import resources
-
-import os
-from contextlib import contextmanager
 
 import simpy
 
@@ -119,20 +117,6 @@ def chain100_1h_overhead_vs_skeleton() -> dict:
     }
 
 
-@contextmanager
-def _threads(n: int):
-    """``NODESIM_THREADS=n`` inside the block."""
-    before = os.environ.get(threads.ENV)
-    os.environ[threads.ENV] = str(n)
-    try:
-        yield
-    finally:
-        if before is None:
-            del os.environ[threads.ENV]
-        else:
-            os.environ[threads.ENV] = before
-
-
 def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[float, float, float, float, float]:
     """(one-by-one time for MC_R extrapolated from MC_SAMPLE runs, batched time, single-run time, the batched
     run's first call, batched time on one thread (NaN unless ``one_thread``)).  Each is timed after a warm-up call of its own kind (what
@@ -148,7 +132,7 @@ def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[
     t_batch = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
     t_batch_1 = float("nan")
     if one_thread:
-        with _threads(1):
+        with threads.limited(1):
             t_batch_1 = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
     return t_one * MC_R, t_batch, t_one, t_first, t_batch_1
 
@@ -157,7 +141,7 @@ def batched_mc_speedup() -> dict:
     base = _sliced(_scenario("perf", "chain100_1h.toml"), MC_DURATION_S).with_overrides(
         **{"chain.nodes": MC_NODES, "filter.implementation": "float"})
     one, batch, single, first, batch_1 = _batched_vs_one_by_one(base, repeat=MC_REPEAT)
-    with _threads(1):  # the SimPy engine's batch is numpy over realizations, ~10 s a side
+    with threads.limited(1):  # the SimPy engine's batch is numpy over realizations, ~10 s a side
         one_ev, batch_ev, single_ev, _, _ = _batched_vs_one_by_one(_event_engine(base), 1, False)
     return {
         "batched_mc_speedup": one / batch,

@@ -27,6 +27,7 @@ ENV = "NODESIM_THREADS"
 T = TypeVar("T")
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
+_pool_lock = threading.Lock()
 
 
 _local = threading.local()  # .limit: the cap of :func:`limited` in this thread
@@ -69,17 +70,18 @@ def chunks(realizations: int, threads: int | None = None) -> list[tuple[int, int
 
 
 def _executor(workers: int) -> ThreadPoolExecutor:
+    """The shared pool, grown to ``workers`` threads when a run asks for more (a replaced pool is not shut
+    down: a run on another thread may still submit to it; its threads end once it is unreferenced)."""
     global _pool, _pool_size
-    if _pool is None or _pool_size < workers:
-        if _pool is not None:
-            _pool.shutdown(wait=True)
-        _pool, _pool_size = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="nodesim"), workers
-    return _pool
+    with _pool_lock:
+        if _pool is None or _pool_size < workers:
+            _pool, _pool_size = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="nodesim"), workers
+        return _pool
 
 
-def _forget_pool_after_fork() -> None:  # a forked child has none of the parent's threads
-    global _pool, _pool_size
-    _pool, _pool_size = None, 0
+def _forget_pool_after_fork() -> None:  # a forked child has none of the parent's threads (nor a held lock)
+    global _pool, _pool_size, _pool_lock
+    _pool, _pool_size, _pool_lock = None, 0, threading.Lock()
 
 
 if hasattr(os, "register_at_fork"):
