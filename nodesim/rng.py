@@ -190,17 +190,25 @@ class RunStreams:
         threads.map_chunks(lambda r0, r1: pcg64_kernel.fill_normals(states[r0:r1], out[r0:r1]), realizations)
         return out
 
+    def _link_child(self, link: int) -> int:
+        """Realization child index of link ``link``'s stream (after the node children)."""
+        return self.n_nodes + link
+
+    def _skip_child(self, node: int) -> int:
+        """Realization child index of node ``node``'s fallback skip-link stream (after the radio hops)."""
+        return 4 * self.n_nodes + node
+
     def link(self, realization: int, link: int) -> np.random.Generator:
         """Generator for link ``link`` (0 = encoder/top hop) in ``realization``."""
-        return self._one(self.first_realization + realization, self.n_nodes + link)
+        return self._one(self.first_realization + realization, self._link_child(link))
 
     def link_batch(self, realizations: int, link: int) -> list[np.random.Generator]:
         """:meth:`link` for realizations 0..realizations-1."""
-        return self._batch(realizations, self.n_nodes + link)
+        return self._batch(realizations, self._link_child(link))
 
     def link_states(self, realizations: int, link: int) -> np.ndarray:
         """:meth:`link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.pcg64_kernel`."""
-        return pcg64_states(self.seed, self._keys(realizations, self.n_nodes + link))
+        return pcg64_states(self.seed, self._keys(realizations, self._link_child(link)))
 
     def radio(self, realization: int, hop: int) -> np.random.Generator:
         """Generator for the radio hop ``hop`` (0 = surface to the top node) in ``realization``."""
@@ -212,12 +220,12 @@ class RunStreams:
 
     def skip_link(self, realization: int, node: int) -> np.random.Generator:
         """Generator for the fallback skip link of node ``node`` (1-based sender) in ``realization``."""
-        return self._one(self.first_realization + realization, 4 * self.n_nodes + node)
+        return self._one(self.first_realization + realization, self._skip_child(node))
 
     def skip_link_batch(self, realizations: int, node: int) -> list[np.random.Generator]:
         """:meth:`skip_link` for realizations 0..realizations-1."""
-        return self._batch(realizations, 4 * self.n_nodes + node)
+        return self._batch(realizations, self._skip_child(node))
 
     def skip_link_states(self, realizations: int, node: int) -> np.ndarray:
         """:meth:`skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.pcg64_kernel`."""
-        return pcg64_states(self.seed, self._keys(realizations, 4 * self.n_nodes + node))
+        return pcg64_states(self.seed, self._keys(realizations, self._skip_child(node)))
