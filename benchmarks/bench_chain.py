@@ -32,7 +32,7 @@ import simpy
 
 from nodesim import threads
 from nodesim.bench import best_time_s, chain_batched_vs_loop
-from nodesim.scenario import load_scenario
+from nodesim.scenario.schema import load_scenario
 
 R = 8
 TUBES = 4
@@ -93,7 +93,7 @@ def _event_engine(scenario):
 
 
 def chain100_1h_overhead_vs_skeleton() -> dict:
-    from nodesim.chain import simulate_chain
+    from nodesim.chain.network import simulate_chain
 
     perf = _scenario("perf", "chain100_1h.toml")
     warmup = best_time_s(lambda: simulate_chain(_sliced(perf, 60.0).with_overrides(**{"chain.nodes": 3})), repeat=1)
@@ -122,7 +122,7 @@ def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[
     run's first call, batched time on one thread (NaN unless ``one_thread``)).  Each is timed after a warm-up call of its own kind (what
     timeit does), best of ``repeat`` (the same for every side): the first batched call in a process also pays
     the first touch of its ~0.5 GB of fresh arrays, kept apart."""
-    from nodesim.chain import simulate_chain
+    from nodesim.chain.network import simulate_chain
 
     singles = [base.with_overrides(**{"simulation.first_realization": r}) for r in range(MC_SAMPLE)]
     simulate_chain(singles[0])  # warm (the compiled engine's first call loads its code)
@@ -160,7 +160,7 @@ def batched_mc_speedup() -> dict:
 
 
 def chain1000_24h_extrapolated() -> dict:
-    from nodesim.chain import simulate_chain
+    from nodesim.chain.network import simulate_chain
 
     perf = _scenario("perf", "chain100_1h.toml").with_overrides(**{"chain.nodes": BIG_NODES})
     walls, records = [], []

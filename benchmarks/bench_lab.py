@@ -7,7 +7,7 @@ with R realizations.  It shows that Monte Carlo cost is carried by numpy arrays,
 from importlib import resources
 
 from nodesim.bench import chain_batched_vs_loop
-from nodesim.scenario import load_scenario
+from nodesim.scenario.schema import load_scenario
 
 R = 32
 

@@ -9,7 +9,7 @@ Figures:
 
 import numpy as np
 
-from nodesim.allan import naive_overlapping_adev, overlapping_adev
+from nodesim.sensors.allan import naive_overlapping_adev, overlapping_adev
 from nodesim.bench import best_time_s
 from nodesim.sensors.catalogue import load_sensor
 

@@ -218,19 +218,3 @@ class FloatYawFilter(YawFilter):
         self.p_yy = yy - k_y * yy  # (I - K H) P, symmetric: K_b P_yy = K_y P_yb
         self.p_yb = yb - k_y * yb
         self.p_bb = bb - k_b * yb
-
-
-IMPLEMENTATIONS = ("float", "fixed")
-
-
-def make_yaw_filter(kind: str, config: YawFilterConfig, realizations: int, initial_yaw_rad=0.0, bias_offset_rad_s=0.0, formats=None) -> YawFilter:
-    """The filter implementation named ``kind`` ("float" or "fixed"; ``formats`` only for "fixed")."""
-    if kind == "float":
-        if formats is not None:
-            raise FirmwareError("formats: only the 'fixed' implementation takes fixed-point formats")
-        return FloatYawFilter(config, realizations, initial_yaw_rad, bias_offset_rad_s)
-    if kind == "fixed":
-        from firmware_model.fixed_filter import FixedYawFilter  # the fixed filter builds on this module
-
-        return FixedYawFilter(config, realizations, initial_yaw_rad, bias_offset_rad_s, formats=formats)
-    raise FirmwareError(f"filter implementation = {kind!r}: allowed {list(IMPLEMENTATIONS)}")

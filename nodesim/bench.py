@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Callable
 
 from nodesim.errors import NodesimError
-from nodesim.results import host_info
+from nodesim.io.rundir import host_info
 
 
 def default_bench_dir() -> Path:
@@ -53,7 +53,7 @@ def best_time_s(fn: Callable[[], object], repeat: int = 5, number: int = 1) -> f
 def chain_batched_vs_loop(base, realizations: int, prefix: str, repeat_loop: int = 2, repeat_batch: int = 3) -> dict:
     """Time ``realizations`` single-realization chain runs of scenario ``base`` (seeds base.seed + i) against
     one run with that many realizations: ``<prefix>_batched_speedup_vs_loop`` plus both raw times."""
-    from nodesim.chain import simulate_chain
+    from nodesim.chain.network import simulate_chain
 
     single = [base.with_overrides(seed=base.seed + i, **{"simulation.realizations": 1}) for i in range(realizations)]
     batched = base.with_overrides(**{"simulation.realizations": realizations})

@@ -9,11 +9,11 @@ from pathlib import Path
 from typing import Callable
 
 import nodesim
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics, summarize
-from nodesim.chain.outputs import write_outputs
-from nodesim.results import default_run_dir, git_commit, host_info, write_json
-from nodesim.scenario import Scenario
+from nodesim.chain.run_tables import write_outputs
+from nodesim.io.rundir import default_run_dir, git_commit, host_info, write_json
+from nodesim.scenario.schema import Scenario
 
 
 @dataclass(frozen=True)

@@ -38,20 +38,6 @@ def test_each_command_help_describes_its_options(command, capsys):
     assert OPTION_OF[command] in capsys.readouterr().out
 
 
-def test_pending_command_helper_says_not_implemented():
-    """Every shipped command is implemented now; the helper for future ones still raises a clear user error."""
-    import argparse
-
-    from nodesim.cli._pending import register_pending
-    from nodesim.errors import NodesimError
-
-    parser = argparse.ArgumentParser()
-    register_pending(parser.add_subparsers(dest="command"), "demo", "a demo", "it arrives later", lambda p: p.add_argument("x"))
-    args = parser.parse_args(["demo", "1"])
-    with pytest.raises(NodesimError, match="not implemented yet"):
-        args.func(args)
-
-
 def test_console_script_is_installed_and_exits_2_on_user_error(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[chain]\nnodes = 0\n")

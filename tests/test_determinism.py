@@ -3,7 +3,7 @@
 import json
 
 from nodesim.cli.main import main
-from nodesim.rng import RunStreams
+from nodesim.rng.streams import RunStreams
 
 
 def _summary_without_timing(path):
@@ -36,8 +36,8 @@ def test_streams_do_not_depend_on_sibling_counts():
 
 
 def test_realization_streams_independent_of_realization_count(lab_toml):
-    from nodesim.chain import simulate_chain
-    from nodesim.scenario import load_scenario
+    from nodesim.chain.network import simulate_chain
+    from nodesim.scenario.schema import load_scenario
 
     base, _ = load_scenario(lab_toml)
     one = simulate_chain(base.with_overrides(**{"simulation.realizations": 1}))

@@ -6,12 +6,12 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from firmware_model.survey import circular_moving_average, resolve_survey
+from firmware_model.survey_resolution import circular_moving_average, resolve_survey
 from firmware_model.yaw_filter import FloatYawFilter, YawFilterConfig
-from nodesim.kinematics import LabRotationProfile
-from nodesim.results import atomic_write_with
-from nodesim.schedules import UpdateSchedule
-from nodesim.sensors import AccelModel
+from nodesim.motion.rotation import LabRotationProfile
+from nodesim.io.rundir import atomic_write_with
+from nodesim.scenario.schedules import UpdateSchedule
+from nodesim.sensors.tick_averaged import AccelModel
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG
 

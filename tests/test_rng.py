@@ -1,10 +1,10 @@
-"""The vectorised SeedSequence (nodesim.rng.seed_states) against numpy's own, bit for bit."""
+"""The vectorised SeedSequence (nodesim.rng.streams.seed_states) against numpy's own, bit for bit."""
 
 import numpy as np
 import pytest
 
-from nodesim import pcg64_kernel
-from nodesim.rng import VECTOR_MIN_KEYS, RunStreams, generators, seed_states
+from nodesim.rng import pcg64
+from nodesim.rng.streams import VECTOR_MIN_KEYS, RunStreams, generators, seed_states
 
 
 def _numpy_states(seed, keys):
@@ -48,7 +48,7 @@ def test_batch_methods_equal_one_by_one():
 
 @pytest.mark.parametrize("R", [1, VECTOR_MIN_KEYS + 3])
 def test_compiled_draws_equal_the_streams_one_by_one(R):
-    """sensor_normals / link_states (nodesim.pcg64_kernel) give each realization's stream's own numbers."""
+    """sensor_normals / link_states (nodesim.rng.pcg64) give each realization's stream's own numbers."""
     s = RunStreams(seed=11, n_nodes=4, first_realization=5)
     normals = s.sensor_normals(R, 2, "accel", 300)
     for r in range(R):
@@ -56,6 +56,6 @@ def test_compiled_draws_equal_the_streams_one_by_one(R):
     for states, one in ((s.link_states(R, 3), lambda r: s.link(r, 3)), (s.skip_link_states(R, 2),
                                                                          lambda r: s.skip_link(r, 2))):
         buf = np.empty(R * 8)
-        pcg64_kernel.fill_uniforms(states, np.arange(R), buf, np.arange(R) * 8, np.arange(R) * 8 + 8)
+        pcg64.fill_uniforms(states, np.arange(R), buf, np.arange(R) * 8, np.arange(R) * 8 + 8)
         for r in range(R):
             assert (buf[8 * r:8 * r + 8] == one(r).random(8)).all()

@@ -4,7 +4,7 @@ import pytest
 
 from nodesim.cli.main import main
 from nodesim.errors import ScenarioError
-from nodesim.scenario import Scenario, load_scenario, parse_scenario
+from nodesim.scenario.schema import Scenario, load_scenario, parse_scenario
 
 
 def test_defaults_are_valid_and_frozen():

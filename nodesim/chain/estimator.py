@@ -1,7 +1,7 @@
 """Filter adapter: the one place where the chain builds and drives a node's yaw filter.
 
 It builds the firmware model's filter named by ``filter.implementation`` (``float`` or the bit-exact
-``fixed``, :func:`firmware_model.yaw_filter.make_yaw_filter`; batched over realizations:
+``fixed``, :func:`firmware_model.filter_factory.make_yaw_filter`; batched over realizations:
 ``predict(rate)``, ``update(reference, variance, mask)``, ``yaw_rad``, ``bias_rad_s``,
 ``yaw_variance_rad2``, ``overflow_counts``) and forms the node-to-node reference with the firmware
 model's eq 3.29 helpers.  The reference is advanced in float for both implementations (the transfer
@@ -13,14 +13,14 @@ from __future__ import annotations
 import numpy as np
 
 from firmware_model.fixed_filter import FixedFormats
+from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import (
     YawFilter,
     YawFilterConfig,
     advance_reference,
     chain_reference_variance,
-    make_yaw_filter,
 )
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG
 
 

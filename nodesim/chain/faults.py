@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodesim.chain.radio import HopChannel
-from nodesim.scenario import Scenario
-from nodesim.scenario_radio import BurstLoss
+from nodesim.scenario.schema import Scenario
+from nodesim.scenario.radio_sections import BurstLoss
 
 
 def death_time_s(scenario: Scenario, node_id: int) -> float:

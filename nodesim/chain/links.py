@@ -1,6 +1,6 @@
 """Per-realization uniform draws of a link (the hops, MAC and faults are in radio.py, mac.py, faults.py).
 
-Draws come per realization from that link's own stream (:meth:`nodesim.rng.RunStreams.link`), in
+Draws come per realization from that link's own stream (:meth:`nodesim.rng.streams.RunStreams.link`), in
 transmission order, and a realization advances its stream only when it transmits, so every realization owns
 its packet outcomes while all realizations share the event skeleton.  Draws are buffered in blocks for
 speed; a block is the next ``block`` numbers of each realization's stream, so the result does not depend on
@@ -17,7 +17,7 @@ import numpy as np
 
 class LazyStreams:
     """One generator per realization, all built together on first use (``make_all()``, e.g.
-    :meth:`nodesim.rng.RunStreams.link_batch`): a link that never transmits, such as an up link of a run
+    :meth:`nodesim.rng.streams.RunStreams.link_batch`): a link that never transmits, such as an up link of a run
     without surveys, costs no generator."""
 
     def __init__(self, make_all: Callable[[], list[np.random.Generator]], realizations: int):

@@ -19,7 +19,7 @@ that of the node ticks; what differs between realizations is arrays):
   ACK.  Idle listening is not counted.
 
 ``mac.enabled = false``: one attempt, no ACK, no queue, no duty cycle, no half duplex, duration = the hop's
-airtime (the simple links' fixed delay).  Uniform draws: see :mod:`nodesim.rng` (data, ACK, burst state,
+airtime (the simple links' fixed delay).  Uniform draws: see :mod:`nodesim.rng.streams` (data, ACK, burst state,
 burst loss per attempt of a realization that attempts).
 """
 
@@ -31,7 +31,7 @@ import numpy as np
 
 from nodesim.chain.links import LossDraws
 from nodesim.chain.radio import HopChannel
-from nodesim.scenario_radio import BurstLoss, MacSection
+from nodesim.scenario.radio_sections import BurstLoss, MacSection
 
 
 @dataclass

@@ -29,10 +29,10 @@ import warnings
 
 import numpy as np
 
-from firmware_model.survey import circular_moving_average, trailing_moving_average
+from firmware_model.survey_resolution import circular_moving_average, trailing_moving_average
 from nodesim.chain.linkmetrics import link_metrics
 from nodesim.chain.network import ChainRun, NodeRun
-from nodesim.scenario import MetricsSection
+from nodesim.scenario.schema import MetricsSection
 from nodesim.units import rad_to_deg, wrap_pi
 
 PER_NODE_KEYS = (

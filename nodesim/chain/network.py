@@ -29,15 +29,16 @@ from nodesim.chain import faults
 from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.links import LazyStreams, LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
-from nodesim.chain.motion import ChainMotion, build_motion
-from nodesim.chain.node import ChainNode
+from nodesim.motion.chain_motion import build_motion
+from nodesim.motion.timelines import ChainMotion
+from nodesim.chain.node_process import ChainNode
 from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.radio import HopChannel, hop_channels
 from nodesim.chain.sensing import EncoderReader, node_signals
 from nodesim.errors import NodesimError
-from nodesim.rng import RunStreams
-from nodesim.scenario import Scenario
-from nodesim.schedules import UpdateSchedule
+from nodesim.rng.streams import RunStreams
+from nodesim.scenario.schema import Scenario
+from nodesim.scenario.schedules import UpdateSchedule
 from nodesim.units import DEG
 
 

@@ -3,7 +3,7 @@
 Hop h (0-based) feeds node h + 1: hop 0 runs from the surface to the top node, hop h >= 1 from node h to node
 h + 1.  ``radio.model = "simple"``: every attempt is lost with ``chain.link_loss_probability`` and takes
 ``chain.link_delay_s``.  ``radio.model = "channel"``: the medium of the hop gives the mean path loss
-(:mod:`channel` through :mod:`nodesim.link_whatif`, nothing re-derived):
+(:mod:`channel` through :mod:`nodesim.chain.link_whatif`, nothing re-derived):
 
 * soil (868 MHz between tube ends): Peplinski permittivity -> alpha, beta -> thesis eq 5.2 over ``distance_m``;
   a ``vwc_profile`` makes it a function of time, evaluated every ``radio.profile_step_s``;
@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from channel import budget, per
-from nodesim import link_whatif
-from nodesim.rng import RunStreams
-from nodesim.scenario import Scenario
+from nodesim.chain import link_whatif
+from nodesim.rng.streams import RunStreams
+from nodesim.scenario.schema import Scenario
 
 
 @dataclass(frozen=True)

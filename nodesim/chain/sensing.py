@@ -6,7 +6,7 @@ sensor issue plug in here without touching the network.  Per node n with true ti
     b_n(t)   = turn-on bias + residual bias after the node's filter start (motion) + Gauss-Markov bias
     accel[k] = sensor-frame specific force at the node's true inclination, azimuth and yaw + white noise
 (the z gyro sees the string spin; the node's yaw may differ from the spin angle by the wellpath twist)
-Random streams: node n's "gyro" and "accel" streams (nodesim.rng), one generator per realization.
+Random streams: node n's "gyro" and "accel" streams (nodesim.rng.streams), one generator per realization.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodesim.chain.motion import ChainMotion
-from nodesim.rng import RunStreams
-from nodesim.scenario import Scenario
-from nodesim.sensors import AccelModel, GyroZModel
+from nodesim.motion.timelines import ChainMotion
+from nodesim.rng.streams import RunStreams
+from nodesim.scenario.schema import Scenario
+from nodesim.sensors.tick_averaged import AccelModel, GyroZModel
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG, G0_M_S2
 

@@ -1,6 +1,6 @@
 """The ``nodesim`` console script: one parser, one module per sub-command.
 
-Each sub-command lives in ``nodesim/cli/<name>.py`` and exposes ``register(subparsers)``, which adds its
+Each sub-command lives in ``nodesim/cli/<name>_command.py`` and exposes ``register(subparsers)``, which adds its
 parser and sets ``func``.  User errors (:data:`nodesim.errors.USER_ERRORS`) print one clear message on
 stderr, without a traceback, and exit with status 2.
 """
@@ -28,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"nodesim {nodesim.__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
-        importlib.import_module(f"nodesim.cli.{name}").register(sub)
+        importlib.import_module(f"nodesim.cli.{name}_command").register(sub)
     return parser
 
 

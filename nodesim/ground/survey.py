@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nodesim.csv_input import read_header_and_rows
+from nodesim.io.csv_input import read_header_and_rows
 from nodesim.errors import NodesimError
 from nodesim.units import DEG
 

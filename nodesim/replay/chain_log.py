@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodesim.chain.motion import ChainMotion
+from nodesim.motion.timelines import ChainMotion
 from nodesim.chain.sensing import EncoderReader
 from nodesim.errors import NodesimError
 from nodesim.replay.logformat import LogMeta
 from nodesim.replay.recorder import NodeRecording, write_log
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 
 
 def chain_recordings(run, scenario: Scenario, realization: int = 0) -> list[NodeRecording]:

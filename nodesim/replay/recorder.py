@@ -21,7 +21,7 @@ import pyarrow.parquet as pq
 
 from nodesim.errors import NodesimError
 from nodesim.replay import logformat as lf
-from nodesim.results import atomic_write_bytes
+from nodesim.io.rundir import atomic_write_bytes
 
 
 @dataclass(frozen=True)

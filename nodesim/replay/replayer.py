@@ -12,11 +12,11 @@ Per node (each node of a multi-node log is replayed with the references it recor
      where the schedule gives a reference, except the ticks marked ``hold`` (state kept, nothing done);
   5. the survey: inclination and azimuth from the tick-averaged specific force and the yaw (thesis eqs
      1.1-1.3), then the firmware's N-point moving average.
-This is the convention of the chain simulation's node process (``nodesim.chain.node``), so a log it
+This is the convention of the chain simulation's node process (``nodesim.chain.node_process``), so a log it
 recorded replays bit for bit.  Schedules:
   - ``recorded``: the updates the log records (``ref_update``, with ``ref_yaw`` and ``ref_var``);
   - imposed (``continuous``, ``windowed:U:T``, ``single:F``, ``none``, or ``config`` for the firmware
-    configuration's ``[schedule]``, which may also be ``arbitrary`` windows): :class:`nodesim.schedules.UpdateSchedule` evaluated at t - t_log.
+    configuration's ``[schedule]``, which may also be ``arbitrary`` windows): :class:`nodesim.scenario.schedules.UpdateSchedule` evaluated at t - t_log.
     A scheduled tick uses the reference the log recorded at that tick when it has one; otherwise, on the
     top node, the latest encoder reading at or before the tick with the quantisation variance q^2 / 12.
     Nodes below the top only get recorded references (they are not re-propagated down the chain).
@@ -30,15 +30,16 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from firmware_model.fixed_filter import FixedFormats
-from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
-from nodesim.allan import AllanNoise, overlapping_adev, read_noise
+from firmware_model.filter_factory import make_yaw_filter
+from firmware_model.yaw_filter import YawFilterConfig
+from nodesim.sensors.allan import AllanNoise, overlapping_adev, read_noise
 from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.estimator import filter_config, fixed_formats
 from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
 from nodesim.replay.reader import NodeLog, ReplayLog
-from nodesim.scenario import Scenario
-from nodesim.schedules import UpdateSchedule
+from nodesim.scenario.schema import Scenario
+from nodesim.scenario.schedules import UpdateSchedule
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.sensors.imu import average_per_tick
 
@@ -106,8 +107,8 @@ def parse_schedule(text: str, setup: FirmwareSetup) -> UpdateSchedule | None:
 
 def allan_noise_of(node: NodeLog, window_s: float | None = None, slope_tolerance: float = 0.05) -> AllanNoise:
     """ARW and bias instability of the node's z gyro from the overlapping Allan deviation
-    (:mod:`nodesim.allan`) of its samples, over the first ``window_s`` seconds (all samples if None);
-    ``slope_tolerance``: how far from -1/2 a point of the ARW line may be (:func:`nodesim.allan.read_noise`)."""
+    (:mod:`nodesim.sensors.allan`) of its samples, over the first ``window_s`` seconds (all samples if None);
+    ``slope_tolerance``: how far from -1/2 a point of the ARW line may be (:func:`nodesim.sensors.allan.read_noise`)."""
     t = node.t_s
     sel = slice(None) if window_s is None else t < t[0] + window_s
     rate, ts = node.gyro_rad_s[sel, 2], t[sel]

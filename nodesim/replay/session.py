@@ -10,11 +10,11 @@ from pathlib import Path
 
 import nodesim
 from nodesim.replay.compare import QUANTITIES, compare_node
-from nodesim.replay.outputs import node_metrics, write_tables
+from nodesim.replay.output_files import node_metrics, write_tables
 from nodesim.replay.reader import DEFAULT_MAX_GAP_S, ReplayLog, read_log
 from nodesim.replay.replayer import FirmwareSetup, NodeReplay, allan_noise_of, parse_schedule, replay_log
-from nodesim.results import default_run_dir, git_commit, host_info, write_json
-from nodesim.scenario import load_scenario
+from nodesim.io.rundir import default_run_dir, git_commit, host_info, write_json
+from nodesim.scenario.schema import load_scenario
 from nodesim.units import rad_to_deg
 
 

@@ -2,8 +2,8 @@
 
 The page is one file (``DIR/report.html`` by default) with every plot embedded as a base64 PNG, so it can be
 mailed or archived alone.  :func:`write_report` picks the kind from the directory: ``campaign.json`` ->
-campaign report (:mod:`nodesim.report.campaign`), ``summary.json`` / ``manifest.json`` -> run report
-(:mod:`nodesim.report.run`).
+campaign report (:mod:`nodesim.report.campaign_report`), ``summary.json`` / ``manifest.json`` -> run report
+(:mod:`nodesim.report.run_report`).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from nodesim.errors import NodesimError
-from nodesim.results import atomic_write_bytes
+from nodesim.io.rundir import atomic_write_bytes
 
 
 def report_kind(directory: Path) -> str:
@@ -29,9 +29,9 @@ def write_report(directory: Path, out: Path | None = None, **options) -> dict:
     """Build the report of ``directory`` and write it atomically; returns {report, kind, images, ...}."""
     kind = report_kind(directory)
     if kind == "campaign":
-        from nodesim.report.campaign import campaign_page as build
+        from nodesim.report.campaign_report import campaign_page as build
     else:
-        from nodesim.report.run import run_page as build
+        from nodesim.report.run_report import run_page as build
     page, info = build(Path(directory), **options)
     target = Path(out) if out is not None else Path(directory) / "report.html"
     atomic_write_bytes(target, page.render().encode("utf-8"))

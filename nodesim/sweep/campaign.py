@@ -19,7 +19,7 @@ import pandas as pd
 
 import nodesim
 from nodesim.errors import NodesimError
-from nodesim.results import git_commit, host_info, write_json
+from nodesim.io.rundir import git_commit, host_info, write_json
 from nodesim.sweep.progress import Progress
 from nodesim.sweep.spec import RESERVED_COLUMNS, RunTask, SweepSpec
 from nodesim.sweep.store import RESULTS, CampaignStore

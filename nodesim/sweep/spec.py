@@ -41,8 +41,8 @@ from typing import Any
 import numpy as np
 
 from nodesim.errors import NodesimError
-from nodesim.results import dumps_json
-from nodesim.scenario import Scenario, load_scenario
+from nodesim.io.rundir import dumps_json
+from nodesim.scenario.schema import Scenario, load_scenario
 
 TOP_KEYS = {"name", "description", "base", "combine", "seeds", "metrics", "keep_runs", "retries", "overrides", "axis"}
 AXIS_KEYS = {"key", "values", "range", "logrange"}

@@ -13,7 +13,7 @@ e.g. ``schedule.timeout_s``), one float column per kept metric, ``status`` ("ok"
 are timing/placement, outside the determinism guarantee; every other column is identical whichever executor
 ran the campaign.
 
-Every file is written to a temporary name and renamed into place (:func:`nodesim.results.atomic_write_with`),
+Every file is written to a temporary name and renamed into place (:func:`nodesim.io.rundir.atomic_write_with`),
 so a campaign killed at any moment leaves only complete part files.  Each finished run is flushed at once
 (one part file per batch of runs finished together), so a kill loses at most the runs in flight.  Part files
 are merged into ``results.parquet`` every ``CONSOLIDATE_EVERY`` parts and at the end.  ``--resume`` reads
@@ -33,7 +33,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from nodesim.errors import NodesimError
-from nodesim.results import atomic_write_with
+from nodesim.io.rundir import atomic_write_with
 from nodesim.sweep.tasks import RunRecord
 
 RESULTS = "results.parquet"

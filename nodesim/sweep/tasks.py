@@ -54,9 +54,9 @@ def run_point(task: RunTask) -> dict:
     The run directory is ``task.keep_dir`` when the sweep keeps runs, otherwise a temporary directory that is
     removed afterwards (a campaign keeps its table, not thousands of run directories).
     """
-    from nodesim.results import dumps_json
+    from nodesim.io.rundir import dumps_json
     from nodesim.runner import run_scenario
-    from nodesim.scenario import parse_scenario
+    from nodesim.scenario.schema import parse_scenario
 
     scenario = parse_scenario(task.scenario, source=task.run_id)
     digest = hashlib.sha256(dumps_json(task.scenario)).hexdigest()

@@ -15,9 +15,9 @@ from importlib import resources
 
 import numpy as np
 
-from nodesim.chain import ChainRun, simulate_chain
+from nodesim.chain.network import ChainRun, simulate_chain
 from nodesim.chain.metrics import bias_convergence_time_s
-from nodesim.scenario import Scenario, load_scenario
+from nodesim.scenario.schema import Scenario, load_scenario
 from nodesim.units import DEG, rad_to_deg, wrap_pi
 from nodesim.validation import Check, within_abs, within_factor, within_rel
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 from functools import lru_cache
 from importlib import resources
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics, summarize
-from nodesim.scenario import load_scenario
+from nodesim.scenario.schema import load_scenario
 from nodesim.validation import Check, within_abs, within_factor
 
 REALIZATIONS = 16

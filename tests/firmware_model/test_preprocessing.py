@@ -21,7 +21,7 @@ from firmware_model.preprocessing import (
     moving_average_fixed,
     tilt_angles,
 )
-from firmware_model.survey import resolve, resolve_survey, trailing_moving_average
+from firmware_model.survey_resolution import resolve, resolve_survey, trailing_moving_average
 
 FMT = QFormat(32, 16)
 DEG = math.pi / 180.0

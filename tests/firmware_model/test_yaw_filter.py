@@ -15,12 +15,12 @@ from filterpy.kalman import KalmanFilter
 from firmware_model.errors import FirmwareError
 from firmware_model.fixed_filter import FixedFormats, FixedYawFilter, const
 from firmware_model.fixedpoint import QFormat
+from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import (
     FloatYawFilter,
     YawFilterConfig,
     advance_reference,
     chain_reference_variance,
-    make_yaw_filter,
     wrap_pi,
 )
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nodesim.allan import FLICKER_FLOOR_FACTOR, naive_overlapping_adev, overlapping_adev, plot_adev, read_noise
+from nodesim.sensors.allan import FLICKER_FLOOR_FACTOR, naive_overlapping_adev, overlapping_adev, plot_adev, read_noise
 from nodesim.errors import NodesimError
 from nodesim.sensors.catalogue import load_sensor
 from nodesim.units import DEG

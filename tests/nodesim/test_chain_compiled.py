@@ -12,11 +12,11 @@ import warnings
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.compiled import engine
 from nodesim.chain.compiled.engine import choose_engine
 from nodesim.errors import NodesimError
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 
 warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
-from nodesim.chain.motion import build_motion
+from nodesim.chain.network import simulate_chain
+from nodesim.motion.chain_motion import build_motion
 from nodesim.cli.main import main
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG, wrap_pi
 
 REPO = Path(__file__).resolve().parents[2]
@@ -84,7 +84,7 @@ def test_lossy_links_lose_surveys_and_the_table_says_so(tmp_path):
 
 def test_ten_tube_field_scenario_end_to_end(tmp_path, capsys):
     """Must-show of the chain issue: a 10-tube (20 m) drilling run hands the ground station one survey per
-    station (drilling kinematics of nodesim.drilling along a building, turning wellpath)."""
+    station (drilling kinematics of nodesim.motion.drilling along a building, turning wellpath)."""
     out = tmp_path / "field"
     assert main(["run", str(FIELD), "--out", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
@@ -110,7 +110,7 @@ def test_ten_tube_field_scenario_end_to_end(tmp_path, capsys):
 
 
 def test_survey_table_holds_the_bottom_nodes_firmware_values_at_the_survey_tick():
-    from nodesim.chain.outputs import survey_columns
+    from nodesim.chain.run_tables import survey_columns
     from nodesim.units import rad_to_deg
 
     run = simulate_chain(drilling(2, **{"simulation.realizations": 3}))

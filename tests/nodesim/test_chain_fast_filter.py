@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from firmware_model.fixed_filter import FixedYawFilter
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.links import LazyStreams
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 
 LOSSY = {  # the perf chain's hops: 0.95 dB margin, PER 0.12 per frame, ARQ with 3 retries
     "filter.implementation": "fixed", "radio.model": "channel", "radio.kind": "soil", "radio.top_kind": "cable",

@@ -4,10 +4,11 @@ outage, a burst-loss link and a clock step each complete and move the metrics th
 import numpy as np
 import pytest
 
-from nodesim.chain import faults, simulate_chain
+from nodesim.chain import faults
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics
 from nodesim.errors import NodesimError, ScenarioError
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 
 BASE = {  # 4 nodes, soil hops with the ARQ MAC, lab rotation from 50 s; metrics over 60..220 s
     "chain.nodes": 4, "simulation.duration_s": 220.0, "simulation.realizations": 2,

@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.links import LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
 from nodesim.chain.metrics import per_realization_metrics
 from nodesim.chain.radio import hop_channels, simple_channel
-from nodesim.rng import RunStreams
-from nodesim.scenario import Scenario
+from nodesim.rng.streams import RunStreams
+from nodesim.scenario.schema import Scenario
 
 
 def _link(p_loss: float, R: int, **mac) -> tuple[Link, Scenario]:
@@ -135,7 +135,7 @@ def test_radio_and_mac_keys_are_validated_with_their_path():
 def test_perf_scenario_is_the_benchmark_chain():
     from importlib import resources
 
-    from nodesim.scenario import load_scenario
+    from nodesim.scenario.schema import load_scenario
 
     with resources.as_file(resources.files("scenarios") / "perf" / "chain100_1h.toml") as p:
         s, _ = load_scenario(p)

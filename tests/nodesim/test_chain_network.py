@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics, summarize
 from nodesim.chain.network import tick_times
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG, wrap_pi
 
 SHORT = {"simulation.duration_s": 450.0, "metrics.window_start_s": 370.0, "metrics.window_end_s": 450.0}

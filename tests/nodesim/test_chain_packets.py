@@ -8,9 +8,9 @@ from hypothesis import strategies as st
 from nodesim.chain.links import LossDraws
 from nodesim.chain.mac import Link
 from nodesim.chain.radio import simple_channel
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.chain.packets import EstimatePacket, select_reference
-from nodesim.rng import RunStreams
+from nodesim.rng.streams import RunStreams
 
 
 def _pkt(seq, t_read, valid, yaw=None):

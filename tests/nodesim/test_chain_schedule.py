@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from nodesim.schedules import UpdateSchedule
+from nodesim.scenario.schedules import UpdateSchedule
 
 DT = 1 / 1.9
 

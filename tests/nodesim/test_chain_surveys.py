@@ -1,9 +1,9 @@
-"""The compiled survey pass of chain runs and replays against firmware_model.survey's numpy functions."""
+"""The compiled survey pass of chain runs and replays against firmware_model.survey_resolution's numpy functions."""
 
 import numpy as np
 import pytest
 
-from firmware_model.survey import circular_moving_average, resolve_survey, trailing_moving_average
+from firmware_model.survey_resolution import circular_moving_average, resolve_survey, trailing_moving_average
 from nodesim.chain.compiled.surveys import averaged_surveys
 
 

@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 
 from firmware_model.fixed_filter import TURN_RAD, FixedFormats, FixedYawFilter
 from firmware_model.fixedpoint import Fx, Overflow, QFormat, Rounding
-from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter
+from firmware_model.filter_factory import make_yaw_filter
+from firmware_model.yaw_filter import YawFilterConfig
 from nodesim.chain.compiled import fixed_kernel as fk
 from nodesim.errors import NodesimError
 

@@ -11,9 +11,9 @@ import math
 
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics, summarize
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.validation.checks_lab import lab_summary
 
 QUIET_GYRO = {

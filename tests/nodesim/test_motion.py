@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.survey import resolve_survey
-from nodesim.drilling import DrillingProcess, Wellpath
+from firmware_model.survey_resolution import resolve_survey
+from nodesim.motion.drilling import DrillingProcess, Wellpath
 from nodesim.errors import NodesimError
-from nodesim.kinematics import LabRotationProfile, RateProfile
+from nodesim.motion.rotation import LabRotationProfile, RateProfile
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.sensors.magnetometer import (
     GeomagneticReference,
@@ -170,10 +170,10 @@ def test_magnetic_survey_round_trip_and_noise_effect():
 
 
 def test_node_imu_along_drilling_integrates_to_the_string_angle_and_reads_the_inclination():
-    from nodesim.rng import RunStreams
+    from nodesim.rng.streams import RunStreams
     from nodesim.sensors.catalogue import load_sensor
     from nodesim.sensors.imu import average_per_tick
-    from nodesim.sensors.node import simulate_node_imu
+    from nodesim.sensors.node_imu import simulate_node_imu
 
     dp = DrillingProcess(WB1)
     imu = load_sensor("MPU6500").imu_spec(gyro_bias_stability_deg_s=0.0)

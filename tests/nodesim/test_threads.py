@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from nodesim import threads
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.errors import NodesimError
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from tests.nodesim.test_chain_compiled import CASES, FIXED, assert_identical
 
 

@@ -6,7 +6,7 @@ import json
 from importlib import resources
 
 from nodesim.runner import run_scenario
-from nodesim.scenario import load_scenario
+from nodesim.scenario.schema import load_scenario
 
 
 def _run(name, tmp_path):

@@ -24,12 +24,13 @@ from typing import Callable
 
 import numpy as np
 
-from nodesim import pcg64_kernel, threads
+from nodesim import threads
+from nodesim.rng import pcg64
 from nodesim.chain.compiled import events as ev
 from nodesim.chain.compiled import filters, fixed_kernel, float_kernel
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 
 INBOX_SLOTS = 8
 
@@ -128,7 +129,7 @@ class _Links:
         """``buf[begin[j]:end[j]]`` = the next uniforms of link ``i``'s stream ``rows[j]`` (ranges of rows on
         threads: each stream is advanced by one of them)."""
         states = self._states(i)
-        threads.map_chunks(lambda a, b: pcg64_kernel.fill_uniforms(states, rows[a:b], buf, begin[a:b], end[a:b]),
+        threads.map_chunks(lambda a, b: pcg64.fill_uniforms(states, rows[a:b], buf, begin[a:b], end[a:b]),
                            rows.size)
 
     def _states(self, i: int) -> np.ndarray:

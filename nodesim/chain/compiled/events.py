@@ -2,7 +2,7 @@
 
 What happens on the links does not depend on any filter value: a node transmits when it applied an update (or
 every running tick), an update is applied when a fresh packet arrived, a packet arrives when the MAC says so.
-So the compiled engine first runs the event skeleton of :mod:`nodesim.chain.node` with all of that and records,
+So the compiled engine first runs the event skeleton of :mod:`nodesim.chain.node_process` with all of that and records,
 per node, tick and realization, which reference (if any) the node takes; phase 2
 (:mod:`nodesim.chain.compiled.filters`) then runs each node's filter down the chain.
 

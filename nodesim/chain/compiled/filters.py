@@ -2,7 +2,7 @@
 
 Estimates only flow down the chain, so the nodes are run one after the other from the top, each over all of its
 ticks, with the references phase 1 chose (:mod:`nodesim.chain.compiled.events`).  Per running tick k and
-realization r, as :class:`nodesim.chain.node.ChainNode` does it:
+realization r, as :class:`nodesim.chain.node_process.ChainNode` does it:
     predict with the tick-averaged gyro rate;
     top node, scheduled tick, reply received:  update with the encoder reference (computed by the caller);
     other nodes, a packet taken from node n - s (s = 1, or 2 after a fallback) read at its tick j:

@@ -1,10 +1,10 @@
 """The surveys a chain run (and a replay) reports, resolved and moving-averaged in one compiled pass per node.
 
-For every realization r and tick k (thesis eqs 1.1-1.3, :func:`firmware_model.survey.resolve`):
+For every realization r and tick k (thesis eqs 1.1-1.3, :func:`firmware_model.survey_resolution.resolve`):
     tau' = atan2(f'_y, f'_x),  I = atan2(h, f'_z) with h = hypot(f'_x, f'_y),  A = (tau' + psi) mod 2 pi,
 then the firmware's trailing N-point moving average of I and the circular one of A (through cos A and sin A),
-the first N - 1 outputs averaging what has arrived (:func:`firmware_model.survey.trailing_moving_average`,
-:func:`~firmware_model.survey.circular_moving_average`), as running sums (the window as the difference of two
+the first N - 1 outputs averaging what has arrived (:func:`firmware_model.survey_resolution.trailing_moving_average`,
+:func:`~firmware_model.survey_resolution.circular_moving_average`), as running sums (the window as the difference of two
 of them, as ``cumsum`` forms them).  The unit vector of A comes from rotating the sensor-frame one by psi
 (eq 1.1), without forming A:
     cos A = (f'_x cos psi - f'_y sin psi) / h,   sin A = (f'_y cos psi + f'_x sin psi) / h

@@ -15,7 +15,7 @@ from nodesim.replay import logformat as lf
 from nodesim.replay.reader import read_log
 from nodesim.replay.recorder import NodeRecording, write_log
 from nodesim.replay.replayer import FirmwareSetup, parse_schedule, replay_log
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG
 
 SCENARIO = Scenario().with_overrides(**{"motion.stationary_s": 10.0})
@@ -109,7 +109,7 @@ def test_fixed_and_float_replays_agree(tmp_path):
 
 
 def test_seq_is_copied_to_the_timeseries(tmp_path):
-    from nodesim.replay.outputs import timeseries_columns
+    from nodesim.replay.output_files import timeseries_columns
 
     t = np.arange(200) / 20.0
     cols = {"t_s": t, "encoder": np.zeros_like(t), "seq": np.floor(t), **{c: np.zeros_like(t) for c in lf.GYRO + lf.ACCEL}}

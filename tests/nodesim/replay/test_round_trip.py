@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.cli.main import main
 from nodesim.replay.chain_log import record_chain_run
 from nodesim.replay.session import replay
-from nodesim.scenario import load_scenario
+from nodesim.scenario.schema import load_scenario
 from nodesim.units import rad_to_deg, wrap_pi
 
 LAB = Path(__file__).resolve().parents[3] / "scenarios" / "lab"

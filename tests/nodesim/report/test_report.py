@@ -12,8 +12,8 @@ import pytest
 from nodesim.cli.main import main
 from nodesim.errors import NodesimError
 from nodesim.report import write_report
-from nodesim.report.campaign import best_points
-from nodesim.results import write_csv
+from nodesim.report.campaign_report import best_points
+from nodesim.io.rundir import write_csv
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from nodesim.chain import simulate_chain
+from nodesim.chain.network import simulate_chain
 from nodesim.cli.main import main
-from nodesim.scenario import Scenario
+from nodesim.scenario.schema import Scenario
 from nodesim.sweep.progress import SimulatedTimeProgress
 
 

@@ -3,7 +3,7 @@
 Every physical parameter is an option (defaults: thesis chapter 5 figures, see ``--help``); ``--sweep
 KEY=START:STOP:N`` evaluates one parameter over a range in one vectorised call; ``--plot FILE.png`` draws the
 sweep (or, without a sweep, received power against distance / pipe length); ``--json`` prints only JSON.
-The keys are listed in :mod:`nodesim.link_whatif` and the README.
+The keys are listed in :mod:`nodesim.chain.link_whatif` and the README.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 SOIL_TABLE = ("eps_real", "eps_imag", "alpha_np_per_m", "beta_rad_per_m", "free_space_loss_db", "path_loss_db",
               "rss_dbm", "margin_db", "max_distance_m", "exceeds_porosity", "snr_db", "packet_error_rate")
@@ -27,7 +27,7 @@ def _option(key: str) -> str:
 
 def register(sub) -> None:
     from channel.per import MODULATIONS
-    from nodesim.link_whatif import FILLINGS, PIPE_PARAMS, SOIL_PARAMS
+    from nodesim.chain.link_whatif import FILLINGS, PIPE_PARAMS, SOIL_PARAMS
 
     p = sub.add_parser(
         "link",
@@ -71,7 +71,7 @@ def register(sub) -> None:
 def _values(args, medium: str) -> dict:
     from channel.steel import grade_carbon_wt_pct
     from nodesim.errors import NodesimError
-    from nodesim.link_whatif import PARAMS
+    from nodesim.chain.link_whatif import PARAMS
 
     keys = {q.key for q in PARAMS[medium]}
     other = {q.key for q in PARAMS["pipe" if medium == "soil" else "soil"]} - keys
@@ -85,7 +85,7 @@ def _values(args, medium: str) -> dict:
 
 
 def run(args) -> int:
-    from nodesim.link_whatif import evaluate, parse_sweep
+    from nodesim.chain.link_whatif import evaluate, parse_sweep
 
     medium = args.medium
     values = _values(args, medium)
@@ -143,8 +143,8 @@ def _plot(medium: str, values: dict, sweep, out: dict, opts: dict, path: Path) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from nodesim.link_whatif import evaluate
-    from nodesim.results import atomic_write_with
+    from nodesim.chain.link_whatif import evaluate
+    from nodesim.io.rundir import atomic_write_with
 
     power = "rss_dbm" if medium == "soil" else "rx_power_dbm"
     loss = "path_loss_db" if medium == "soil" else "loss_db"

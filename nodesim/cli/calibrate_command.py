@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from nodesim.calibration import calibrate
-from nodesim.csv_input import read_header_and_rows
+from nodesim.sensors.calibration import calibrate
+from nodesim.io.csv_input import read_header_and_rows
 from nodesim.errors import NodesimError
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 COLUMNS = ("true_x", "true_y", "true_z", "meas_x", "meas_y", "meas_z")
 

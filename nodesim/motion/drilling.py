@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodesim.errors import NodesimError
-from nodesim.kinematics import RateProfile
+from nodesim.motion.rotation import RateProfile
 from nodesim.units import DEG
 
 TWIST_STEP_M = 0.05

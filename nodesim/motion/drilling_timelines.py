@@ -1,4 +1,4 @@
-"""The drilling process as the chain sees it: :class:`nodesim.drilling.DrillingProcess` (tube insertions
+"""The drilling process as the chain sees it: :class:`nodesim.motion.drilling.DrillingProcess` (tube insertions
 along a wellpath, true attitude of every node) turned into node timelines and survey stops (thesis 2.7, 4.1).
 
 Chain time t = process time + ``initial_static_s``: the string first rests so that the bit node (tube 0)
@@ -15,7 +15,7 @@ process node k (0 = bit) is chain node id N - k (1 = top of the final chain).
     stop starts (the 32-point moving average has settled) and sent up; its MD is the bottom node's MD.
 Mounting yaws are set so that every node's yaw equals the string angle theta at its insertion (a rigid,
 aligned string: in a straight hole all nodes share the encoder's angle; a curved hole adds the geometric
-twist of :mod:`nodesim.drilling`).
+twist of :mod:`nodesim.motion.drilling`).
 """
 
 from __future__ import annotations
@@ -25,10 +25,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from nodesim.chain.motion import ChainMotion, NodeAttitude, NodeTimeline, SurveyStop
-from nodesim.drilling import DrillingProcess, Wellpath
-from nodesim.kinematics import RateProfile
-from nodesim.scenario import Scenario
+from nodesim.motion.timelines import ChainMotion, NodeAttitude, NodeTimeline, SurveyStop
+from nodesim.motion.drilling import DrillingProcess, Wellpath
+from nodesim.motion.rotation import RateProfile
+from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG
 
 

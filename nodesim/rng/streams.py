@@ -38,7 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.random.bit_generator import ISeedSequence
 
-from nodesim import pcg64_kernel, threads
+from nodesim import threads
+from nodesim.rng import pcg64
 
 SENSOR_STREAMS: tuple[str, ...] = ("gyro", "accel", "encoder", "magnetometer", "clock")
 """Per-node stream names, in spawn order.  Append new names at the end only."""
@@ -148,9 +149,9 @@ def generators(seed: int, keys: np.ndarray) -> list[np.random.Generator]:
 
 
 def pcg64_states(seed: int, keys: np.ndarray) -> np.ndarray:
-    """The PCG64 states (M, 4) of ``generators(seed, keys)``, to draw from with :mod:`nodesim.pcg64_kernel`
+    """The PCG64 states (M, 4) of ``generators(seed, keys)``, to draw from with :mod:`nodesim.rng.pcg64`
     (the same numbers as those generators, without building them)."""
-    return pcg64_kernel.seeded(seed_words(seed, keys))
+    return pcg64.seeded(seed_words(seed, keys))
 
 
 @dataclass(frozen=True)
@@ -187,7 +188,7 @@ class RunStreams:
         out = np.empty((realizations, n))
         keys = self._keys(realizations, *self._sensor_path(node, stream))
         states = pcg64_states(self.seed, keys)
-        threads.map_chunks(lambda r0, r1: pcg64_kernel.fill_normals(states[r0:r1], out[r0:r1]), realizations)
+        threads.map_chunks(lambda r0, r1: pcg64.fill_normals(states[r0:r1], out[r0:r1]), realizations)
         return out
 
     def _link_child(self, link: int) -> int:
@@ -207,7 +208,7 @@ class RunStreams:
         return self._batch(realizations, self._link_child(link))
 
     def link_states(self, realizations: int, link: int) -> np.ndarray:
-        """:meth:`link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.pcg64_kernel`."""
+        """:meth:`link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.rng.pcg64`."""
         return pcg64_states(self.seed, self._keys(realizations, self._link_child(link)))
 
     def radio(self, realization: int, hop: int) -> np.random.Generator:
@@ -227,5 +228,5 @@ class RunStreams:
         return self._batch(realizations, self._skip_child(node))
 
     def skip_link_states(self, realizations: int, node: int) -> np.ndarray:
-        """:meth:`skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.pcg64_kernel`."""
+        """:meth:`skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.rng.pcg64`."""
         return pcg64_states(self.seed, self._keys(realizations, self._skip_child(node)))

@@ -125,7 +125,7 @@ def _survey_section(page: Page, run_dir: Path, tool: str) -> None:
         return
     from nodesim.ground import load_tool, propagate, read_survey_csv
     from nodesim.ground.ellipsoid import confidence_scale, horizontal_ellipse
-    from nodesim.plots_ground import plot_uncertainty
+    from nodesim.ground.wellpath_plot import plot_uncertainty
     import tempfile
 
     survey = read_survey_csv(path)

@@ -13,7 +13,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from nodesim.scenario_base import _Section
+from nodesim.scenario.section_base import _Section
 
 Kind = Literal["soil", "pipe", "cable"]
 

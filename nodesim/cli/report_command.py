@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 
 def register(sub) -> None:

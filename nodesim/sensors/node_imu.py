@@ -1,11 +1,11 @@
 """True IMU inputs of one node along a drilling process, and its simulated sensor-rate IMU record.
 
-Composition of :mod:`nodesim.drilling` (truth) and :mod:`nodesim.sensors.imu` (errors): the z gyro sees
+Composition of :mod:`nodesim.motion.drilling` (truth) and :mod:`nodesim.sensors.imu` (errors): the z gyro sees
 the string spin, the transverse gyros see nothing (the path-curvature rates at drilling speeds, ROP x
 dogleg rate, are below 1e-5 rad/s and neglected), the accelerometers see the specific force of the tube
 at its inclination, azimuth and yaw (thesis eqs 1.1-1.3 frame).  Before a node is inserted it is at the
 surface at rest and its inputs are those of its insertion instant.  Random streams: pass the node's
-``gyro`` and ``accel`` generators from :class:`nodesim.rng.RunStreams`.
+``gyro`` and ``accel`` generators from :class:`nodesim.rng.streams.RunStreams`.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodesim.drilling import DrillingProcess
+from nodesim.motion.drilling import DrillingProcess
 from nodesim.errors import NodesimError
 from nodesim.sensors.imu import ImuSpec, TriadSamples
 from nodesim.sensors.magnetometer import specific_force_body

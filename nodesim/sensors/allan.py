@@ -156,7 +156,7 @@ def plot_adev(curves: dict[str, AllanCurve], path: Path, title: str = "Allan dev
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from nodesim.results import atomic_write_with
+    from nodesim.io.rundir import atomic_write_with
 
     fig, ax = plt.subplots(figsize=(7, 5))
     for label, c in curves.items():

@@ -17,8 +17,8 @@ from typing import Any, Literal
 from pydantic import Field, ValidationError, model_validator
 
 from nodesim.errors import ScenarioError
-from nodesim.scenario_base import _Section
-from nodesim.scenario_radio import FaultsSection, MacSection, RadioSection, check_indices
+from nodesim.scenario.section_base import _Section
+from nodesim.scenario.radio_sections import FaultsSection, MacSection, RadioSection, check_indices
 
 
 class SimulationSection(_Section):
@@ -71,7 +71,7 @@ class ChainSection(_Section):
 
 class MotionSection(_Section):
     """True motion.  ``kind = "lab"``: the thesis lab rotation profile (thesis 4.2.2-4.2.3): static, slow
-    rotation, pause, fast rotation, static.  ``kind = "drilling"``: :class:`nodesim.drilling.DrillingProcess`
+    rotation, pause, fast rotation, static.  ``kind = "drilling"``: :class:`nodesim.motion.drilling.DrillingProcess`
     after ``initial_static_s`` at rest: per tube, drill ``tube_length_m`` at ``rate_of_penetration_m_s``
     rotating at ``drill_rate_deg_s`` (ramps of ``ramp_s``), a survey stop of ``survey_stop_s``, then the next
     tube's insertion (``insertion_s``, string in the slips), along ``wellpath`` rows [MD m, inclination deg,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 
 def register(sub) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 
 def register(sub) -> None:
@@ -27,7 +27,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from nodesim.runner import run_scenario
-    from nodesim.scenario import load_scenario
+    from nodesim.scenario.schema import load_scenario
 
     scenario, digest = load_scenario(args.scenario)
     overrides = {}

@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 
 from nodesim.chain.linkmetrics import hop_table  # noqa: E402
 from nodesim.chain.network import ChainRun  # noqa: E402
-from nodesim.results import atomic_write_with, write_csv  # noqa: E402
+from nodesim.io.rundir import atomic_write_with, write_csv  # noqa: E402
 from nodesim.units import G0_M_S2, rad_to_deg, wrap_pi  # noqa: E402
 
 

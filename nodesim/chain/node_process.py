@@ -32,23 +32,47 @@ Arrays are (R,): the event skeleton is shared by all realizations.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
 from nodesim.chain.estimator import forwarded_reference, new_filter, rate_estimate
-from nodesim.chain.motion import NodeTimeline
+from nodesim.motion.timelines import NodeTimeline
 from nodesim.chain.packets import EstimatePacket, SurveyPacket, select_reference
 from nodesim.chain.sensing import NodeSignals
 
-if TYPE_CHECKING:
-    from nodesim.chain.network import Network
+
+class ChainWorld(Protocol):
+    """What a node process uses of the network that runs it (:class:`nodesim.chain.network.Network`)."""
+
+    env: Any  # simpy.Environment
+    events: int
+    scenario: Any  # nodesim.scenario.schema.Scenario
+    motion: Any  # nodesim.motion.timelines.ChainMotion
+    encoder: Any  # nodesim.chain.sensing.EncoderReader
+    n_nodes: int
+    nodes: list
+    dt_s: float
+    max_age_s: float
+    processing_s: float
+    offset_sigma_rad: float
+    extrapolate_rate: bool
+    forward_every_tick: bool
+    down_links: list
+    surface: Any  # nodesim.chain.mac.RadioState
+    sent: list
+
+    def next_seq(self) -> int: ...
+
+    def send_survey(self, packet: SurveyPacket, ready_s) -> None: ...
+
+    def skip_link(self, node_id: int) -> Any: ...
 
 
 class ChainNode:
     """Node ``node_id`` (1 = top of the final chain) and its per-tick records."""
 
-    def __init__(self, net: "Network", node_id: int, timeline: NodeTimeline, signals: NodeSignals,
+    def __init__(self, net: ChainWorld, node_id: int, timeline: NodeTimeline, signals: NodeSignals,
                  scheduled: np.ndarray):
         self.net = net
         self.node_id = node_id

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 
 def register(sub) -> None:
@@ -57,7 +57,7 @@ def run(args) -> int:
     hla = nev_to_hla(u.cov_nev_m2, survey.inc_rad, survey.azi_rad)
     major, minor, azi = horizontal_ellipse(u.cov_nev_m2)
     if args.plot:
-        from nodesim.plots_ground import plot_uncertainty
+        from nodesim.ground.wellpath_plot import plot_uncertainty
 
         plot_uncertainty(u, Path(args.plot), scale, f"{Path(args.survey).name}, tool {model.name}")
     if args.json:

@@ -1,12 +1,12 @@
-"""True motion of the chain as the network sees it: the string's spin, each node's attitude, and when
-each node exists, holds and surveys.
+"""The chain's view of the true motion: the string's spin, each node's attitude, and when each node exists,
+holds and surveys (data types; :mod:`nodesim.motion.chain_motion` builds them from a scenario).
 
 Two kinds (``motion.kind``):
-  - ``lab``: the thesis lab string (thesis 4.2.2-4.2.3, :class:`nodesim.kinematics.LabRotationProfile`);
+  - ``lab``: the thesis lab string (thesis 4.2.2-4.2.3, :class:`nodesim.motion.rotation.LabRotationProfile`);
     every node is present from t = 0, estimates its initial bias over the static window and shares the
     string's yaw, inclination and azimuth (a rigid string, no torsion).  Node 1 is the top node.
-  - ``drilling``: :func:`nodesim.chain.drilling.drilling_motion` around the drilling process of
-    :mod:`nodesim.drilling`; node N (at the bit) is in place first and node 1 is inserted last.
+  - ``drilling``: :func:`nodesim.motion.drilling_timelines.drilling_motion` around the drilling process of
+    :mod:`nodesim.motion.drilling`; node N (at the bit) is in place first and node 1 is inserted last.
 
 Both give a :class:`ChainMotion`: the string spin (angle theta(t), what the encoder reads; its rate is what
 every z gyro sees), each node's true yaw/inclination/azimuth at its tick times, one :class:`NodeTimeline`
@@ -15,15 +15,10 @@ per node and the survey stops.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Callable, Protocol
 
 import numpy as np
-
-from nodesim.kinematics import LabRotationProfile
-from nodesim.scenario import Scenario
-from nodesim.units import DEG
 
 
 class Rotation(Protocol):
@@ -82,37 +77,3 @@ class ChainMotion:
     stops: tuple[SurveyStop, ...]
     metric_windows: tuple[tuple[float, float], ...]  # where RMS errors are measured
     rotation_end_s: float  # end of the last rotation (bias convergence is timed from here)
-
-
-def lab_profile(scenario: Scenario) -> LabRotationProfile:
-    m = scenario.motion
-    return LabRotationProfile(
-        inclination_rad=m.inclination_deg * DEG,
-        azimuth_rad=m.azimuth_deg * DEG,
-        stationary_s=m.stationary_s,
-        slow_rate_rad_s=m.slow_rate_deg_s * DEG,
-        slow_turns=m.slow_turns,
-        pause_s=m.pause_s,
-        fast_rate_rad_s=m.fast_rate_deg_s * DEG,
-        fast_turns=m.fast_turns,
-    )
-
-
-def build_motion(scenario: Scenario) -> ChainMotion:
-    """The motion of ``scenario`` (lab or drilling)."""
-    if scenario.motion.kind == "drilling":
-        from nodesim.chain.drilling import drilling_motion
-
-        return drilling_motion(scenario)
-    profile = lab_profile(scenario)
-    n = scenario.chain.nodes
-    timelines = tuple(
-        NodeTimeline(i + 1, 0.0, scenario.motion.stationary_s, (), math.inf if i == 0 else 0.0) for i in range(n)
-    )
-    window = ((scenario.metrics.window_start_s, scenario.metrics.window_end_s),)
-
-    def attitude(_: int, t_s: np.ndarray) -> NodeAttitude:
-        return NodeAttitude(profile.yaw_rad(t_s), np.full(t_s.shape, profile.inclination_rad),
-                            np.full(t_s.shape, profile.azimuth_rad))
-
-    return ChainMotion(profile, attitude, timelines, (), window, profile.rotation_end_s)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from nodesim.results import dumps_json
+from nodesim.io.rundir import dumps_json
 
 
 def register(sub) -> None:
@@ -31,7 +31,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from nodesim.errors import NodesimError
-    from nodesim.results import default_run_dir
+    from nodesim.io.rundir import default_run_dir
     from nodesim.sweep.campaign import run_campaign
     from nodesim.sweep.executors import make_executor
     from nodesim.sweep.spec import load_sweep

@@ -1,4 +1,4 @@
-"""Base class of every scenario section (shared by :mod:`nodesim.scenario` and :mod:`nodesim.scenario_radio`)."""
+"""Base class of every scenario section (shared by :mod:`nodesim.scenario.schema` and :mod:`nodesim.scenario.radio_sections`)."""
 
 from __future__ import annotations
 

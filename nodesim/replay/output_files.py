@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from nodesim.replay.compare import QuantityDiff, recorded_at_ticks  # noqa: E402
 from nodesim.replay.reader import NodeLog  # noqa: E402
 from nodesim.replay.replayer import NodeReplay  # noqa: E402
-from nodesim.results import atomic_write_with, write_csv  # noqa: E402
+from nodesim.io.rundir import atomic_write_with, write_csv  # noqa: E402
 from nodesim.units import rad_to_deg, wrap_pi  # noqa: E402
 
 

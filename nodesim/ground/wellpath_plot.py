@@ -13,7 +13,7 @@ from matplotlib.patches import Ellipse  # noqa: E402
 
 from nodesim.ground.covariance import Uncertainty  # noqa: E402
 from nodesim.ground.ellipsoid import horizontal_ellipse  # noqa: E402
-from nodesim.results import atomic_write_with  # noqa: E402
+from nodesim.io.rundir import atomic_write_with  # noqa: E402
 
 
 MAX_ELLIPSES = 200
