@@ -28,13 +28,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
-from scipy.special import erfc, i0e
-from scipy.stats import ncx2
 
 from channel._validate import check_positive, check_range
 from channel.constants import K_BOLTZMANN_J_K, T0_K
 from channel.errors import ChannelError
+
+# scipy (scipy.stats alone takes ~0.6 s to import) is imported inside the functions that use it, so that importing
+# this module, e.g. for MODULATIONS or Radio's defaults in the ``nodesim link`` parser, stays cheap.
 
 MODULATIONS = ("fsk_noncoherent", "fsk_coherent", "dbpsk", "bpsk")
 
@@ -69,6 +69,8 @@ def noise_floor_dbm(bandwidth_hz, noise_figure_db=0.0, temperature_k=T0_K):
 
 
 def _q(x):
+    from scipy.special import erfc
+
     return 0.5 * erfc(x / np.sqrt(2.0))
 
 
@@ -88,6 +90,9 @@ def ber(ebn0_linear, modulation: str = "fsk_noncoherent", modulation_index: floa
     if modulation == "fsk_coherent":
         return _q(np.sqrt(g * (1.0 - fsk_correlation(modulation_index))))
     if modulation == "fsk_noncoherent":
+        from scipy.special import i0e
+        from scipy.stats import ncx2
+
         s = np.sqrt(1.0 - rho**2)
         a = np.sqrt(g / 2.0 * (1.0 - s))
         b = np.sqrt(g / 2.0 * (1.0 + s))
@@ -145,6 +150,8 @@ def draw_packet_success(rx_power_dbm, frame_bits, rng: np.random.Generator, radi
 
 def sensitivity_dbm(radio: Radio = Radio(), target_ber: float = 1e-3) -> float:
     """Received power at which the BER equals ``target_ber`` (for comparison with a datasheet sensitivity)."""
+    from scipy.optimize import brentq
+
     target = float(check_range("target_ber", target_ber, 0.0, 0.5, lo_open=True, hi_open=True))
     floor = float(noise_floor_dbm(radio.bandwidth_hz, radio.noise_figure_db, radio.temperature_k))
 

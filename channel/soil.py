@@ -34,7 +34,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import lambertw
 
 from channel._validate import as_float_array, check_positive, check_range
 from channel.constants import C0_M_S, EPS0_F_M, NP_TO_DB
@@ -199,6 +198,8 @@ def max_distance_m(max_path_loss_db, alpha_np_per_m, beta_rad_per_m,
     ln(beta d) + alpha d = u (L - constant), hence d = W(alpha/beta * exp(u (L - constant))) / alpha (Lambert W,
     principal branch); d = exp(u (L - constant)) / beta when alpha = 0.
     """
+    from scipy.special import lambertw  # here, not at module top: importing channel stays cheap
+
     loss = as_float_array("max_path_loss_db", max_path_loss_db)
     alpha = check_range("alpha_np_per_m", alpha_np_per_m, 0.0, None)
     beta = check_positive("beta_rad_per_m", beta_rad_per_m)

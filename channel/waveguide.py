@@ -28,7 +28,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.special import jn_zeros, jnp_zeros
 
 from channel._validate import check_positive, check_range
 from channel.constants import C0_M_S, ETA0_OHM, MU0_H_M, NP_TO_DB
@@ -73,6 +72,8 @@ class Mode:
 
 @lru_cache(maxsize=None)
 def _zero(kind: str, m: int, n: int) -> float:
+    from scipy.special import jn_zeros, jnp_zeros  # here, not at module top: importing channel stays cheap
+
     return float((jnp_zeros if kind == "TE" else jn_zeros)(m, n)[-1])
 
 

@@ -11,9 +11,11 @@ Every firmware tick (1/1.9 Hz = 526 ms) runs, in order:
 A tick without a reference skips the three reference steps.  The thesis gives no durations (digest 5.1,
 item 30 of digest 9); the defaults are the digest's [A] values: read 2 ms, radio legs 15 ms, KF 5 ms.
 
-The network simulation asks :meth:`ExecutionCycle.step_at` ("what does the node do at time t") and
-:meth:`ExecutionCycle.estimate_ready_s` ("when is its estimate ready to send").  Everything is vectorised
-over arrays of times or tick indices.
+:meth:`ExecutionCycle.step_at` answers "what does the node do at time t" and
+:meth:`ExecutionCycle.estimate_ready_s` "when is its estimate ready to send", vectorised over arrays of times
+or tick indices.  No engine drives a node through this model yet: the chain's node process
+(:mod:`nodesim.chain.node_process`) runs the same order of steps with a single processing time
+(``chain.processing_s``); only the tests call this module today.
 """
 
 from __future__ import annotations

@@ -1,16 +1,32 @@
 """nodesim: simulator of a drill-string sensor chain.
 
-Layers (one direction, top to bottom): kinematics -> sensors -> firmware_model -> channel/network
--> ground station -> results.  See README.md and the architecture note.
+The Python API (see README.md, "Python API"):
+
+    import nodesim
+    run = nodesim.simulate("scenarios/lab/continuous.toml", seed=7, **{"chain.nodes": 2})
+    run.summary, run.timeseries, run.plot_yaw(), run.save("runs/demo")
+    nodesim.load_run("runs/demo")
+
+``simulate``, ``load_run``, ``Run`` (:mod:`nodesim.api`) and ``Scenario`` (:mod:`nodesim.scenario.schema`)
+are imported on first use, so ``import nodesim`` stays light (the command line's ``--help`` pays nothing for
+numba, pandas or matplotlib).
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
 from nodesim.errors import NodesimError
+from nodesim.io.rundir import package_version
 
-try:
-    __version__ = version("nodesim")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+unknown"
+__version__ = package_version()
 
-__all__ = ["NodesimError", "__version__"]
+__all__ = ["NodesimError", "Run", "Scenario", "__version__", "load_run", "simulate"]
+
+
+def __getattr__(name: str):
+    if name in ("simulate", "load_run", "Run"):
+        from nodesim import api
+
+        return getattr(api, name)
+    if name == "Scenario":
+        from nodesim.scenario.schema import Scenario
+
+        return Scenario
+    raise AttributeError(f"module 'nodesim' has no attribute {name!r}")

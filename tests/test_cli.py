@@ -64,7 +64,7 @@ def test_run_writes_the_run_directory(lab_toml, tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     for key in ("rms_azimuth_error_deg", "rms_inclination_error_deg", "bias_convergence_time_s"):
         assert isinstance(summary[key], float)
-    assert set(summary["timing"]) == {"simulation_s", "wall_s"}
+    assert set(summary["timing"]) == {"simulation_s", "wall_s", "save_s"}
     files = {p.name for p in out.iterdir()}
     assert {"manifest.json", "summary.json", "realizations.csv", "timeseries.csv", "yaw_error.png"} <= files
     assert not [n for n in files if n.endswith(".tmp")]

@@ -1,4 +1,4 @@
-"""Run-directory files of a chain run: time series, survey table and plots.
+"""The tables of a chain run, as columns (the CSV files of its run directory; :class:`nodesim.api.Run`).
 
 - ``timeseries.csv``: long (columnar) table, one row per node and tick of realization 0;
 - ``surveys.csv``: the survey table the ground station received, one row per realization and station
@@ -9,23 +9,17 @@
   ``nodesim uncertainty`` (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
 - ``hops.csv``: one row per hop: medium, mean path loss and margin, frames, delivery ratio, retransmissions,
   latency, queue drops (means over realizations; :func:`nodesim.chain.linkmetrics.hop_table`);
-- ``yaw_error.png``: yaw error and bias estimate of every node against time (like thesis figs 4.14, 4.18).
+- ``realizations.csv``: one row per realization with the per-realization metrics.
+The yaw plot is :mod:`nodesim.chain.yaw_plot`.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+import numpy as np
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from nodesim.chain.linkmetrics import hop_table  # noqa: E402
-from nodesim.chain.network import ChainRun  # noqa: E402
-from nodesim.io.rundir import atomic_write_with, write_csv  # noqa: E402
-from nodesim.units import G0_M_S2, rad_to_deg, wrap_pi  # noqa: E402
+from nodesim.chain.linkmetrics import hop_table
+from nodesim.chain.network import ChainRun
+from nodesim.units import G0_M_S2, rad_to_deg, wrap_pi
 
 
 def timeseries_columns(run: ChainRun, r: int = 0) -> dict[str, np.ndarray]:
@@ -95,47 +89,15 @@ def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str,
     }
 
 
-def plot_chain_run(run: ChainRun, path: Path, title: str, r: int = 0) -> None:
-    """Yaw error and bias estimate (with the true bias dashed) of every node, realization ``r``."""
-    fig, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    lo, hi = np.inf, -np.inf
-    for i, n in enumerate(run.nodes):
-        c = colors[i % len(colors)]
-        show = n.running
-        t = np.where(show, n.t_s, np.nan)
-        label = f"node {n.node_id}"
-        axes[0].plot(t, rad_to_deg(wrap_pi(n.yaw_est_rad[r] - n.true_yaw_rad)), lw=0.7, color=c, label=label)
-        axes[1].plot(t, rad_to_deg(n.bias_est_rad_s[r]), lw=0.7, color=c, label=label)
-        axes[1].plot(t, rad_to_deg(n.true_bias_rad_s[r]), lw=0.7, ls="--", color=c)
-        if show.any():
-            both = np.concatenate([n.bias_est_rad_s[r][show], n.true_bias_rad_s[r][show]])
-            lo, hi = min(lo, rad_to_deg(both.min())), max(hi, rad_to_deg(both.max()))
-    axes[0].set_ylabel("yaw error [deg]")
-    axes[1].set_ylabel("z-gyro bias [deg/s]\n(dashed: true)")
-    axes[1].set_xlabel("time [s]")
-    if np.isfinite(lo):
-        pad = 0.1 * (hi - lo) + 1e-3
-        axes[1].set_ylim(lo - pad, hi + pad)
-    for ax in axes:
-        ax.axvline(run.rotation_end_s, color="0.3", lw=0.6, ls=":")
-        ax.grid(True, lw=0.3)
-    if len(run.nodes) <= 12:
-        axes[0].legend(loc="best", fontsize=7, ncol=2)
-    fig.suptitle(title)
-    fig.tight_layout()
-    atomic_write_with(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    plt.close(fig)
-
-
-def write_outputs(run: ChainRun, out: Path, title: str, per_realization: dict[str, np.ndarray], plots: bool) -> None:
+def run_tables(run: ChainRun, per_realization: dict[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
+    """Every table of a run directory, by name (the CSV file's stem), in the order they are written."""
     R = next(iter(per_realization.values())).size
-    write_csv(out / "realizations.csv", {"realization": np.arange(R), **per_realization})
-    write_csv(out / "timeseries.csv", timeseries_columns(run))
-    write_csv(out / "hops.csv", hop_table(run))
+    tables = {
+        "realizations": {"realization": np.arange(R), **per_realization},
+        "timeseries": timeseries_columns(run),
+        "hops": hop_table(run),
+    }
     if run.motion.stops:
-        table = survey_columns(run)
-        write_csv(out / "surveys.csv", table)
-        write_csv(out / "ground_survey.csv", ground_survey_columns(table))
-    if plots:
-        plot_chain_run(run, out / "yaw_error.png", title)
+        tables["surveys"] = survey_columns(run)
+        tables["ground_survey"] = ground_survey_columns(tables["surveys"])
+    return tables

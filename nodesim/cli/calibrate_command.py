@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from nodesim.sensors.calibration import calibrate
-from nodesim.io.csv_input import read_header_and_rows
-from nodesim.errors import NodesimError
 from nodesim.io.rundir import dumps_json
+
+if TYPE_CHECKING:
+    import numpy as np
 
 COLUMNS = ("true_x", "true_y", "true_z", "meas_x", "meas_y", "meas_z")
 
@@ -34,6 +33,11 @@ def register(sub) -> None:
 
 def read_positions(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(true (N,3), meas (N,3)) from a calibration CSV; errors name the file, row and column."""
+    import numpy as np
+
+    from nodesim.errors import NodesimError
+    from nodesim.io.csv_input import read_header_and_rows
+
     path = Path(path)
     header, data = read_header_and_rows(path, COLUMNS, "calibration data")
     idx = [header.index(c) for c in COLUMNS]
@@ -54,6 +58,10 @@ def read_positions(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run(args) -> int:
+    import numpy as np
+
+    from nodesim.sensors.calibration import calibrate
+
     true, meas = read_positions(args.data)
     cal = calibrate(true, meas, args.method)
     if args.json:

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from nodesim.io.rundir import dumps_json
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 SOIL_TABLE = ("eps_real", "eps_imag", "alpha_np_per_m", "beta_rad_per_m", "free_space_loss_db", "path_loss_db",
               "rss_dbm", "margin_db", "max_distance_m", "exceeds_porosity", "snr_db", "packet_error_rate")
@@ -104,6 +106,8 @@ def run(args) -> int:
 
 
 def _fmt(v) -> str:
+    import numpy as np
+
     if isinstance(v, (bool, np.bool_)):
         return "yes" if v else "no"
     v = float(v)
@@ -111,6 +115,8 @@ def _fmt(v) -> str:
 
 
 def format_result(medium: str, out: dict) -> str:
+    import numpy as np
+
     cols = SOIL_TABLE if medium == "soil" else PIPE_TABLE
     lines = []
     if medium == "pipe":
@@ -137,14 +143,12 @@ def format_result(medium: str, out: dict) -> str:
     return "\n".join(lines)
 
 
-def _plot(medium: str, values: dict, sweep, out: dict, opts: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def link_figure(medium: str, values: dict, sweep, out: dict, opts: dict) -> Figure:
+    """Received power and path loss against the swept parameter (without a sweep: distance / pipe length)."""
+    import numpy as np
+    from matplotlib.figure import Figure  # lazy: `nodesim --help` and table/JSON output do not load matplotlib
 
     from nodesim.chain.link_whatif import evaluate
-    from nodesim.io.rundir import atomic_write_with
 
     power = "rss_dbm" if medium == "soil" else "rx_power_dbm"
     loss = "path_loss_db" if medium == "soil" else "loss_db"
@@ -155,7 +159,8 @@ def _plot(medium: str, values: dict, sweep, out: dict, opts: dict, path: Path) -
         xs = np.linspace(top / 200.0, top, 200)
         out = evaluate(medium, values, (key, xs), **opts)
     key, xs = out["sweep"]["key"], out["sweep"]["values"]
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    fig = Figure(figsize=(7, 6))
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
     ax1.plot(xs, out[power], label="received power")
     ax1.axhline(values["sensitivity_dbm"], color="tab:red", ls="--", lw=0.8, label="sensitivity")
     ax1.set_ylabel("received power [dBm]")
@@ -167,5 +172,12 @@ def _plot(medium: str, values: dict, sweep, out: dict, opts: dict, path: Path) -
         ax.grid(True, lw=0.3)
     fig.suptitle(f"nodesim link {medium}")
     fig.tight_layout()
+    return fig
+
+
+def _plot(medium: str, values: dict, sweep, out: dict, opts: dict, path: Path) -> None:
+    """Write :func:`link_figure` to ``path`` as PNG, atomically."""
+    from nodesim.io.rundir import atomic_write_with
+
+    fig = link_figure(medium, values, sweep, out, opts)
     atomic_write_with(path, lambda p: fig.savefig(p, dpi=100, format="png"))
-    plt.close(fig)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from nodesim.io.rundir import dumps_json
 
 
 def register(sub) -> None:
@@ -26,7 +25,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from nodesim.runner import run_scenario
+    from nodesim.api import simulate_scenario
+    from nodesim.io.rundir import default_run_dir, dumps_json
     from nodesim.scenario.schema import load_scenario
 
     scenario, digest = load_scenario(args.scenario)
@@ -42,16 +42,18 @@ def run(args) -> int:
         return 0
     from nodesim.sweep.progress import SimulatedTimeProgress
 
+    out = args.out if args.out is not None else default_run_dir(scenario.name)
     with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
-        outcome = run_scenario(scenario, digest, args.out, progress=bar.update if bar.enabled else None)
+        run_ = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
+    out = run_.save(out)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 
-        record_chain_run(args.record, outcome.run, scenario)
+        record_chain_run(args.record, run_.chain, scenario)
     if args.json:
-        sys.stdout.write(dumps_json(outcome.summary).decode())
+        sys.stdout.write(dumps_json(run_.summary).decode())
     else:
-        print_summary(outcome.summary, outcome.out_dir)
+        print_summary(run_.summary, out)
     return 0
 
 
@@ -63,7 +65,8 @@ def print_summary(summary: dict, out_dir: Path) -> None:
     for key, value in rows:
         shown = f"{value:.4g}" if isinstance(value, float) else ("n/a" if value is None else str(value))
         print(f"{key:<{width}}  {shown}")
-    print(f"run directory: {out_dir}  (wall time {summary['timing']['wall_s']:.2f} s)")
+    timing = summary["timing"]
+    print(f"run directory: {out_dir}  (wall time {timing['wall_s'] + timing.get('save_s', 0.0):.2f} s)")
 
 
 __all__ = ["register", "run"]

@@ -5,8 +5,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from nodesim.io.rundir import dumps_json
 
 
@@ -45,6 +43,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    import numpy as np
+
     from nodesim.ground import load_tool, propagate, read_survey_csv
     from nodesim.ground.ellipsoid import confidence_scale, horizontal_ellipse, nev_to_hla
 

@@ -1,30 +1,28 @@
-"""Plot of a wellpath with its uncertainty ellipses (matplotlib, Agg backend)."""
+"""Plot of a wellpath with its uncertainty ellipses (matplotlib object-oriented API: the backend is left alone)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Ellipse  # noqa: E402
-
-from nodesim.ground.covariance import Uncertainty  # noqa: E402
-from nodesim.ground.ellipsoid import horizontal_ellipse  # noqa: E402
-from nodesim.io.rundir import atomic_write_with  # noqa: E402
+from nodesim.ground.covariance import Uncertainty
+from nodesim.ground.ellipsoid import horizontal_ellipse
+from nodesim.io.rundir import atomic_write_with
 
 
 MAX_ELLIPSES = 200
 
 
-def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> None:
+def uncertainty_figure(u: Uncertainty, scale: float, title: str) -> Figure:
     """Plan view (E, N) with the horizontal ellipses and the TVD band against MD, both at ``scale`` sigma."""
     p = u.path
     major, minor, azi = horizontal_ellipse(u.cov_nev_m2)
     sd_tvd = np.sqrt(np.clip(u.cov_nev_m2[:, 2, 2], 0.0, None))
-    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(11, 5))
+    fig = Figure(figsize=(11, 5))
+    ax0, ax1 = fig.subplots(1, 2)
     ax0.plot(p.e_m, p.n_m, "-o", ms=2.5, lw=1.0, color="tab:blue", label="wellpath")
     stride = max(1, len(p.n_m) // MAX_ELLIPSES)  # long wells: draw every stride-th ellipse and the last
     for k in sorted(set(range(0, len(p.n_m), stride)) | {len(p.n_m) - 1}):
@@ -56,5 +54,10 @@ def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> No
     ax1.legend(loc="best")
     fig.suptitle(title)
     fig.tight_layout()
+    return fig
+
+
+def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> None:
+    """Write :func:`uncertainty_figure` to ``path`` as PNG, atomically."""
+    fig = uncertainty_figure(u, scale, title)
     atomic_write_with(path, lambda f: fig.savefig(f, dpi=110, format="png"))
-    plt.close(fig)

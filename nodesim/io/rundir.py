@@ -23,9 +23,10 @@ import subprocess
 import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
@@ -62,16 +63,18 @@ def atomic_write_with(path: Path, writer: Callable[[Path], None]) -> None:
 
 def dumps_json(obj: Any) -> bytes:
     """Deterministic JSON: sorted keys, fixed indentation, NaN/inf turned into null."""
-    return (json.dumps(_jsonable(obj), indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
+    import numpy as np  # here, not at module top: the CLI parsers import this module and must start fast
+
+    return (json.dumps(_jsonable(obj, np), indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
 
 
-def _jsonable(obj: Any) -> Any:
+def _jsonable(obj: Any, np) -> Any:
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): _jsonable(v, np) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [_jsonable(v, np) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
+        return _jsonable(obj.tolist(), np)
     if isinstance(obj, (np.floating, float)):
         value = float(obj)
         return value if np.isfinite(value) else None
@@ -88,6 +91,8 @@ def write_json(path: Path, obj: Any) -> None:
 
 def write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
     """Write equal-length columns as CSV with a header (floats with repr precision)."""
+    import numpy as np
+
     names = list(columns)
     rows = zip(*(np.asarray(columns[n]).tolist() for n in names))
     buf = io.StringIO()
@@ -116,3 +121,13 @@ def default_run_dir(scenario_name: str, now: datetime | None = None) -> Path:
 
 def host_info() -> dict[str, str]:
     return {"hostname": platform.node(), "platform": platform.platform(), "python": platform.python_version()}
+
+
+def package_version() -> str:
+    """The installed nodesim version ("0.0.0+unknown" when run from a source tree without installation)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("nodesim")
+    except PackageNotFoundError:
+        return "0.0.0+unknown"

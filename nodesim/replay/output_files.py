@@ -13,18 +13,18 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from nodesim.replay.compare import QuantityDiff, recorded_at_ticks
+from nodesim.replay.reader import NodeLog
+from nodesim.replay.replayer import NodeReplay
+from nodesim.io.rundir import atomic_write_with, write_csv
+from nodesim.units import rad_to_deg, wrap_pi
 
-from nodesim.replay.compare import QuantityDiff, recorded_at_ticks  # noqa: E402
-from nodesim.replay.reader import NodeLog  # noqa: E402
-from nodesim.replay.replayer import NodeReplay  # noqa: E402
-from nodesim.io.rundir import atomic_write_with, write_csv  # noqa: E402
-from nodesim.units import rad_to_deg, wrap_pi  # noqa: E402
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def yaw_reference(node: NodeLog, rep: NodeReplay) -> tuple[np.ndarray, str | None]:
@@ -91,8 +91,12 @@ def comparison_columns(diffs: dict[int, dict[str, QuantityDiff]], reps: tuple[No
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in rows.items()}
 
 
-def plot_replay(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], path: Path, title: str) -> None:
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+def replay_figure(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], title: str) -> Figure:
+    """Yaw error (or, without a reference, the yaw estimate) and bias estimate of every node against time."""
+    from matplotlib.figure import Figure  # lazy: replays without plots do not load matplotlib
+
+    fig = Figure(figsize=(9, 6))
+    axes = fig.subplots(2, 1, sharex=True)
     for node, rep in zip(logs, reps):
         ref, kind = yaw_reference(node, rep)
         if kind is None:  # nothing to measure against: show the free-running yaw itself
@@ -108,8 +112,13 @@ def plot_replay(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], path: P
         ax.legend(loc="best", fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
+    return fig
+
+
+def plot_replay(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], path: Path, title: str) -> None:
+    """Write :func:`replay_figure` to ``path`` as PNG, atomically."""
+    fig = replay_figure(logs, reps, title)
     atomic_write_with(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    plt.close(fig)
 
 
 def write_tables(out: Path, logs, reps, diffs, plots: bool, title: str) -> None:
@@ -120,4 +129,5 @@ def write_tables(out: Path, logs, reps, diffs, plots: bool, title: str) -> None:
         plot_replay(logs, reps, out / "yaw_error.png", title)
 
 
-__all__ = ["node_metrics", "timeseries_columns", "comparison_columns", "plot_replay", "write_tables", "yaw_reference"]
+__all__ = ["node_metrics", "timeseries_columns", "comparison_columns", "plot_replay", "replay_figure", "write_tables",
+           "yaw_reference"]

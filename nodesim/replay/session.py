@@ -8,12 +8,11 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-import nodesim
 from nodesim.replay.compare import QUANTITIES, compare_node
 from nodesim.replay.output_files import node_metrics, write_tables
 from nodesim.replay.reader import DEFAULT_MAX_GAP_S, ReplayLog, read_log
 from nodesim.replay.replayer import FirmwareSetup, NodeReplay, allan_noise_of, parse_schedule, replay_log
-from nodesim.io.rundir import default_run_dir, git_commit, host_info, write_json
+from nodesim.io.rundir import default_run_dir, git_commit, host_info, package_version, write_json
 from nodesim.scenario.schema import load_scenario
 from nodesim.units import rad_to_deg
 
@@ -99,7 +98,7 @@ def replay(
         summary["timing"] = {"replay_s": t_replay, "wall_s": time.perf_counter() - t0}
         write_json(out / "summary.json", summary)
         write_json(out / "manifest.json", {
-            "nodesim_version": nodesim.__version__,
+            "nodesim_version": package_version(),
             "git_commit": git_commit(),
             "log": str(log.path),
             "log_sha256": hashlib.sha256(log.path.read_bytes()).hexdigest(),

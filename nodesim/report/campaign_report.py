@@ -17,17 +17,15 @@ from __future__ import annotations
 import re
 
 import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from nodesim.errors import NodesimError  # noqa: E402
-from nodesim.report.html import Page  # noqa: E402
-from nodesim.sweep.campaign import read_manifest  # noqa: E402
-from nodesim.sweep.spec import RESERVED_COLUMNS  # noqa: E402
-from nodesim.sweep.store import CampaignStore  # noqa: E402
+from nodesim.errors import NodesimError
+from nodesim.report.html import Page
+from nodesim.sweep.campaign import read_manifest
+from nodesim.sweep.spec import RESERVED_COLUMNS
+from nodesim.sweep.store import CampaignStore
 
 MAX_LINES = 6
 BANDS = ((5, 95, 0.15), (25, 75, 0.3))
@@ -78,12 +76,13 @@ def _band_plot(ax, ok: pd.DataFrame, axis: str, metric: str, positions: dict, la
     ax.plot(xs, q[50], "o-", ms=3, lw=1.0, color=color, label=label)
 
 
-def metric_vs_axis_figure(ok: pd.DataFrame, axis: str, metric: str, other: str | None):
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+def metric_vs_axis_figure(ok: pd.DataFrame, axis: str, metric: str, other: str | None) -> Figure:
+    fig = Figure(figsize=(7.5, 4.2))
+    ax = fig.subplots()
     values = sorted(ok[axis].unique(), key=lambda v: (isinstance(v, str), v))
     numeric = _numeric(ok[axis])
     positions = {v: (float(v) if numeric else i) for i, v in enumerate(values)}
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     if other is not None and ok[other].nunique() <= MAX_LINES:
         for i, (ov, g) in enumerate(ok.groupby(other, sort=True)):
             _band_plot(ax, g.dropna(subset=[metric]), axis, metric, positions, f"{other} = {ov}", colors[i % len(colors)])

@@ -1,7 +1,8 @@
 """A tiny HTML page builder: headings, paragraphs, tables and embedded PNG figures (no template engine).
 
-Every text goes through :func:`html.escape`; figures are rendered with matplotlib's Agg backend into memory
-and embedded as ``data:image/png;base64`` URIs, so the page is a single self-contained file.
+Every text goes through :func:`html.escape`; figures (:class:`matplotlib.figure.Figure` built directly, so no
+backend is chosen or switched) are saved as PNG into memory and embedded as ``data:image/png;base64`` URIs, so
+the page is a single self-contained file.
 """
 
 from __future__ import annotations
@@ -10,11 +11,6 @@ import base64
 import html
 import io
 from dataclasses import dataclass, field
-
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
@@ -27,11 +23,10 @@ img { max-width: 100%; } .note { color: #666; font-style: italic; }
 """
 
 
-def fig_png(fig) -> bytes:
-    """PNG bytes of a matplotlib figure (closed afterwards)."""
+def fig_png(fig, dpi: int = 100) -> bytes:
+    """PNG bytes of a matplotlib figure at ``dpi``."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
+    fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
 
 
@@ -72,8 +67,8 @@ class Page:
         )
         self.n_images += 1
 
-    def figure(self, fig, caption: str) -> None:
-        self.image(fig_png(fig), caption)
+    def figure(self, fig, caption: str, dpi: int = 100) -> None:
+        self.image(fig_png(fig, dpi), caption)
 
     def render(self) -> str:
         title = html.escape(self.title)

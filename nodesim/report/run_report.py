@@ -20,16 +20,13 @@ import json
 import re
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from nodesim.errors import NodesimError  # noqa: E402
-from nodesim.report.html import Page  # noqa: E402
-from nodesim.sweep.spec import select_metrics  # noqa: E402
+from nodesim.errors import NodesimError
+from nodesim.report.html import Page
+from nodesim.sweep.spec import select_metrics
 
 MAX_NODES_PLOTTED = 24
 
@@ -74,7 +71,8 @@ def _chain_section(page: Page, summary: dict) -> None:
     if not wanted:
         return
     page.heading("Metrics along the chain")
-    fig, axes = plt.subplots(len(wanted), 1, figsize=(8, 2.6 * len(wanted)), sharex=True, squeeze=False)
+    fig = Figure(figsize=(8, 2.6 * len(wanted)))
+    axes = fig.subplots(len(wanted), 1, sharex=True, squeeze=False)
     for ax, key in zip(axes[:, 0], wanted):
         nodes = sorted(per_node[key])
         ax.plot(nodes, [per_node[key][n] for n in nodes], "o-", ms=4, lw=1.0)
@@ -92,7 +90,8 @@ def _yaw_section(page: Page, ts: pd.DataFrame | None) -> None:
         page.para(f"no time series with {sorted(need)} in this run (timeseries.csv)", note=True)
         return
     groups = list(ts.groupby("node")) if "node" in ts.columns else [(1, ts)]
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+    fig = Figure(figsize=(10, 6.5))
+    axes = fig.subplots(2, 1, sharex=True)
     for node, g in groups[:MAX_NODES_PLOTTED]:
         if "running" in g.columns:
             g = g[g["running"] == 1]
@@ -125,16 +124,14 @@ def _survey_section(page: Page, run_dir: Path, tool: str) -> None:
         return
     from nodesim.ground import load_tool, propagate, read_survey_csv
     from nodesim.ground.ellipsoid import confidence_scale, horizontal_ellipse
-    from nodesim.ground.wellpath_plot import plot_uncertainty
-    import tempfile
+    from nodesim.ground.wellpath_plot import uncertainty_figure
 
     survey = read_survey_csv(path)
     u = propagate(survey, load_tool(tool))
     scale = confidence_scale("2", dof=1)
-    with tempfile.TemporaryDirectory() as tmp:
-        png = Path(tmp) / "u.png"
-        plot_uncertainty(u, png, scale, f"{len(survey)} stations received, tool {tool}, 2 sigma")
-        page.image(png.read_bytes(), "plan view with horizontal 2-sigma ellipses; TVD band against MD")
+    fig = uncertainty_figure(u, scale, f"{len(survey)} stations received, tool {tool}, 2 sigma")
+    # dpi 110: the same image as `nodesim uncertainty --plot` writes
+    page.figure(fig, "plan view with horizontal 2-sigma ellipses; TVD band against MD", dpi=110)
     major, minor, _ = horizontal_ellipse(u.cov_nev_m2)
     rows = [
         [float(survey.md_m[k]), float(np.degrees(survey.inc_rad[k])), float(np.degrees(survey.azi_rad[k])),
@@ -155,7 +152,8 @@ def _link_section(page: Page, run_dir: Path) -> None:
             continue
         where = next((c for c in ("hop", "link", "node", "md_m") if c in df.columns), None)
         x = df[where] if where else np.arange(len(df))
-        fig, ax = plt.subplots(figsize=(9, 4))
+        fig = Figure(figsize=(9, 4))
+        ax = fig.subplots()
         for c in cols:
             ax.plot(x, df[c], "o-", ms=3, lw=0.8, label=c)
         ax.axhline(0.0, color="tab:red", lw=0.8, ls="--")

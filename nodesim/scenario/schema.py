@@ -9,6 +9,7 @@ degrees appear only here, at the edge, and are converted by the consumers throug
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import tomllib
 from pathlib import Path
@@ -293,8 +294,11 @@ class Scenario(_Section):
 
 
 def _set_dotted(data: dict, keys: list[str], value: Any) -> None:
-    for key in keys[:-1]:
+    for depth, key in enumerate(keys[:-1]):
         data = data.setdefault(key, {})
+        if not isinstance(data, dict):
+            where = ".".join(keys[: depth + 1])
+            raise ScenarioError(f"<overrides>: {'.'.join(keys)}: {where} is a value, not a section")
     data[keys[-1]] = value
 
 
@@ -327,8 +331,38 @@ def load_scenario(path: str | Path) -> tuple[Scenario, str]:
         raw = path.read_bytes()
     except OSError as err:
         raise ScenarioError(f"{path}: cannot read scenario file ({err.strerror})") from None
+    return _parse_toml(raw, str(path))
+
+
+def _parse_toml(raw: bytes, source: str) -> tuple[Scenario, str]:
     try:
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise ScenarioError(f"{path}: not valid TOML ({err})") from None
-    return parse_scenario(data, source=str(path)), hashlib.sha256(raw).hexdigest()
+        raise ScenarioError(f"{source}: not valid TOML ({err})") from None
+    return parse_scenario(data, source=source), hashlib.sha256(raw).hexdigest()
+
+
+def read_scenario(source: "str | Path | dict | Scenario") -> tuple[Scenario, str | None]:
+    """A scenario from a file path, a TOML string, a dict (parsed TOML) or a :class:`Scenario`.
+
+    Returns the scenario and the SHA-256 of its source bytes (the file or the TOML text; for a dict or a
+    Scenario, of its canonical JSON, sorted keys).  A string is a TOML text when it spans several lines or
+    contains ``=``; otherwise it is a path, and a missing file is a clear error.
+    """
+    if isinstance(source, Scenario):
+        return source, _canonical_sha256(source.model_dump())
+    if isinstance(source, dict):
+        return parse_scenario(source), _canonical_sha256(source)
+    if isinstance(source, Path):
+        return load_scenario(source)
+    if isinstance(source, str):
+        if "\n" in source or "=" in source:
+            return _parse_toml(source.encode("utf-8"), "<scenario text>")
+        return load_scenario(Path(source))
+    raise ScenarioError(
+        f"scenario: expected a path, a TOML string, a dict or a Scenario (got {type(source).__name__})"
+    )
+
+
+def _canonical_sha256(data: dict) -> str:
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()

@@ -30,10 +30,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nodesim.errors import NodesimError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 FLICKER_FLOOR_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 """Allan-deviation plateau of bias instability per unit B (eq V.34): 0.6643."""
@@ -149,16 +153,13 @@ def read_noise(
     )
 
 
-def plot_adev(curves: dict[str, AllanCurve], path: Path, title: str = "Allan deviation", unit: str = "deg/s", scale: float = 1.0) -> None:
-    """Log-log Allan deviation plot of one or more curves (values multiplied by ``scale``), written atomically."""
-    import matplotlib
+def adev_figure(curves: dict[str, AllanCurve], title: str = "Allan deviation", unit: str = "deg/s",
+                scale: float = 1.0) -> Figure:
+    """Log-log Allan deviation plot of one or more curves (values multiplied by ``scale``)."""
+    from matplotlib.figure import Figure  # lazy: the estimator does not need matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from nodesim.io.rundir import atomic_write_with
-
-    fig, ax = plt.subplots(figsize=(7, 5))
+    fig = Figure(figsize=(7, 5))
+    ax = fig.subplots()
     for label, c in curves.items():
         ax.loglog(c.tau_s, c.adev * scale, label=label, lw=1.0)
     ax.set_xlabel("averaging time tau [s]")
@@ -167,5 +168,12 @@ def plot_adev(curves: dict[str, AllanCurve], path: Path, title: str = "Allan dev
     ax.legend(loc="best")
     ax.set_title(title)
     fig.tight_layout()
+    return fig
+
+
+def plot_adev(curves: dict[str, AllanCurve], path: Path, title: str = "Allan deviation", unit: str = "deg/s", scale: float = 1.0) -> None:
+    """Write :func:`adev_figure` to ``path`` as PNG, atomically."""
+    from nodesim.io.rundir import atomic_write_with
+
+    fig = adev_figure(curves, title, unit, scale)
     atomic_write_with(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    plt.close(fig)

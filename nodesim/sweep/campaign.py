@@ -17,9 +17,8 @@ from typing import Callable, TextIO
 
 import pandas as pd
 
-import nodesim
 from nodesim.errors import NodesimError
-from nodesim.io.rundir import git_commit, host_info, write_json
+from nodesim.io.rundir import git_commit, host_info, package_version, write_json
 from nodesim.sweep.progress import Progress
 from nodesim.sweep.spec import RESERVED_COLUMNS, RunTask, SweepSpec
 from nodesim.sweep.store import RESULTS, CampaignStore
@@ -85,7 +84,7 @@ def run_campaign(
     todo = [t for t in tasks if t.run_id not in done]
     started = datetime.now(timezone.utc)
     manifest = {
-        "nodesim_version": nodesim.__version__,
+        "nodesim_version": package_version(),
         "git_commit": git_commit(),
         "sweep": spec.describe(),
         "base_scenario": spec.base.model_dump(),

@@ -68,7 +68,7 @@ class LocalExecutor:
         methods = mp.get_all_start_methods()
         if "forkserver" in methods:
             ctx = mp.get_context("forkserver")
-            ctx.set_forkserver_preload(["nodesim.sweep.tasks", "nodesim.runner"])
+            ctx.set_forkserver_preload(["nodesim.sweep.tasks", "nodesim.api"])
         else:
             ctx = mp.get_context("spawn")
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)

@@ -1,4 +1,4 @@
-"""What a worker runs: one (point, seed) through ``run_scenario``, wrapped with bounded retries.
+"""What a worker runs: one (point, seed) through :func:`nodesim.api.simulate_scenario`, wrapped with bounded retries.
 
 Run functions take a :class:`RunTask` and return a dict of metrics.  They live at module level so both
 executors can ship them to workers by reference (process pools and Dask pickle functions by name).
@@ -16,11 +16,8 @@ core busy for ``payload['busy_s']`` seconds and can fail or kill its worker on r
 from __future__ import annotations
 
 import hashlib
-import inspect
 import os
-import shutil
 import socket
-import tempfile
 import time
 import traceback
 from dataclasses import dataclass
@@ -49,28 +46,21 @@ class RunRecord:
 
 
 def run_point(task: RunTask) -> dict:
-    """Run the task's scenario through ``nodesim.runner.run_scenario`` and keep the requested metrics.
+    """Run the task's scenario (:func:`nodesim.api.simulate_scenario`) and keep the requested metrics.
 
-    The run directory is ``task.keep_dir`` when the sweep keeps runs, otherwise a temporary directory that is
-    removed afterwards (a campaign keeps its table, not thousands of run directories).
+    The run directory (with its plot) is written only when the sweep keeps runs (``task.keep_dir``): a
+    campaign keeps its table, not thousands of run directories.
     """
+    from nodesim.api import simulate_scenario
     from nodesim.io.rundir import dumps_json
-    from nodesim.runner import run_scenario
     from nodesim.scenario.schema import parse_scenario
 
     scenario = parse_scenario(task.scenario, source=task.run_id)
     digest = hashlib.sha256(dumps_json(task.scenario)).hexdigest()
-    # plots only for kept run directories (and only if this runner version can skip them)
-    extra = {"plots": task.keep_dir is not None} if "plots" in inspect.signature(run_scenario).parameters else {}
+    run = simulate_scenario(scenario, digest)
     if task.keep_dir is not None:
-        outcome = run_scenario(scenario, digest, Path(task.keep_dir), **extra)
-        return select_metrics(outcome.summary, task.metrics)
-    tmp = tempfile.mkdtemp(prefix=f"nodesim-{task.run_id}-")
-    try:
-        outcome = run_scenario(scenario, digest, Path(tmp), **extra)
-        return select_metrics(outcome.summary, task.metrics)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        run.save(Path(task.keep_dir))
+    return select_metrics(run.summary, task.metrics)
 
 
 def busy_run(task: RunTask) -> dict:

@@ -71,10 +71,11 @@ def test_one_survey_per_station_reaches_the_ground_station():
 
 
 def test_lossy_links_lose_surveys_and_the_table_says_so(tmp_path):
-    from nodesim.runner import run_scenario
+    from nodesim.api import simulate_scenario
 
     s = drilling(3, **{"simulation.realizations": 4, "chain.link_loss_probability": 0.4})
-    out = run_scenario(s, None, tmp_path / "run", plots=False)
+    out = simulate_scenario(s, None)
+    out.save(tmp_path / "run", plots=False)
     rows = list(csv.DictReader((tmp_path / "run" / "surveys.csv").open()))
     assert len(rows) == 12
     received = [int(r["received"]) for r in rows]
@@ -154,13 +155,14 @@ def test_rate_ramps_make_the_tick_mean_compensation_lag_hop_by_hop_and_extrapola
 
 def test_same_seed_same_run_directory_bytes(tmp_path):
     """Determinism of the chain issue: same scenario and seed -> identical tables (drilling, lossy links)."""
-    from nodesim.runner import run_scenario
+    from nodesim.api import simulate_scenario
 
     s = drilling(3, **{"simulation.realizations": 2, "chain.link_loss_probability": 0.2})
     for name in ("a", "b"):
-        run_scenario(s, None, tmp_path / name, plots=False)
+        simulate_scenario(s, None).save(tmp_path / name, plots=False)
     for table in ("surveys.csv", "ground_survey.csv", "timeseries.csv", "realizations.csv"):
         assert (tmp_path / "a" / table).read_bytes() == (tmp_path / "b" / table).read_bytes()
-    other = run_scenario(s.with_overrides(seed=s.seed + 1), None, tmp_path / "c", plots=False)
+    other = simulate_scenario(s.with_overrides(seed=s.seed + 1), None)
+    other.save(tmp_path / "c", plots=False)
     assert (tmp_path / "c" / "surveys.csv").read_bytes() != (tmp_path / "a" / "surveys.csv").read_bytes()
     assert other.summary["nodes"] == 3

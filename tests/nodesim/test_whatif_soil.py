@@ -5,7 +5,7 @@ import csv
 import json
 from importlib import resources
 
-from nodesim.runner import run_scenario
+from nodesim.api import simulate_scenario
 from nodesim.scenario.schema import load_scenario
 
 
@@ -13,8 +13,8 @@ def _run(name, tmp_path):
     with resources.as_file(resources.files("scenarios") / "whatif" / name) as p:
         s, digest = load_scenario(p)
     s = s.with_overrides(**{"simulation.realizations": 3})
-    out = run_scenario(s, digest, tmp_path / name, plots=False)
-    return json.loads((out.out_dir / "summary.json").read_text()), out.out_dir
+    out = simulate_scenario(s, digest).save(tmp_path / name, plots=False)
+    return json.loads((out / "summary.json").read_text()), out
 
 
 def test_wetter_soil_stales_the_updates_and_raises_the_bottom_azimuth_error(tmp_path):

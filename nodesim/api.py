@@ -1,0 +1,262 @@
+"""The Python API: a scenario in, a :class:`Run` out; a run directory written or read back.
+
+    >>> import nodesim
+    >>> run = nodesim.simulate("scenarios/lab/continuous.toml", seed=7, **{"chain.nodes": 2})
+    >>> run.summary["rms_azimuth_error_deg"]          # the summary.json dict
+    >>> run.timeseries.head()                          # pandas DataFrames, the CSV files' columns
+    >>> fig = run.plot_yaw()                           # a matplotlib Figure
+    >>> run.save("runs/two-nodes")                     # the run directory `nodesim run` writes
+    >>> nodesim.load_run("runs/two-nodes") == run      # True
+
+``simulate`` writes nothing; :meth:`Run.save` writes every file atomically (temp file + rename) and refuses a
+directory that already holds a run.  ``nodesim run`` is ``simulate`` followed by ``save``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from nodesim.errors import NodesimError
+from nodesim.io.rundir import (
+    atomic_write_with,
+    default_run_dir,
+    git_commit,
+    host_info,
+    package_version,
+    write_csv,
+    write_json,
+)
+from nodesim.scenario.schema import Scenario, parse_scenario, read_scenario
+
+TABLES = ("realizations", "timeseries", "hops", "surveys", "ground_survey")  # <name>.csv, in writing order
+RUN_FILES = ("summary.json", "manifest.json", "yaw_error.png") + tuple(f"{t}.csv" for t in TABLES)
+PLOT_FILE = "yaw_error.png"
+
+
+def simulate(
+    scenario: "str | Path | dict | Scenario",
+    *,
+    seed: int | None = None,
+    realizations: int | None = None,
+    progress: Callable[[float], None] | None = None,
+    **overrides: Any,
+) -> "Run":
+    """Simulate ``scenario`` (a path, a TOML string, a dict or a :class:`Scenario`) and return its :class:`Run`.
+
+    ``seed`` and ``realizations`` override the scenario's root seed and ``simulation.realizations``;
+    ``overrides`` take dotted keys (``**{"chain.nodes": 20}``), validated like the TOML (an unknown key or a
+    value out of range raises :class:`nodesim.NodesimError` naming it).  ``progress(fraction)`` is called as
+    simulated time advances.  Nothing is written to disk.
+    """
+    parsed, digest = read_scenario(scenario)
+    changes = dict(overrides)
+    if seed is not None:
+        changes["seed"] = seed
+    if realizations is not None:
+        changes["simulation.realizations"] = realizations
+    if changes:
+        parsed = parsed.with_overrides(**changes)
+    return simulate_scenario(parsed, digest, progress)
+
+
+def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
+                      progress: Callable[[float], None] | None = None) -> "Run":
+    """:func:`simulate` for a validated scenario whose source hash the caller knows (``nodesim run``, sweeps)."""
+    from nodesim.chain.metrics import per_realization_metrics, summarize
+    from nodesim.chain.network import simulate_chain
+    from nodesim.chain.run_tables import run_tables
+
+    started = datetime.now(timezone.utc)
+    t0 = time.perf_counter()
+    chain = simulate_chain(scenario, progress)
+    t_sim = time.perf_counter() - t0
+    per_real = per_realization_metrics(chain, scenario.metrics)
+    summary = summarize(per_real)
+    summary["scenario"] = scenario.name
+    summary["seed"] = scenario.seed
+    summary["simpy_events"] = chain.simpy_events
+    summary["engine"] = chain.engine
+    summary["nodes"] = len(chain.nodes)
+    summary["firmware_saturations"] = sum(sum(n.firmware_overflows.values()) for n in chain.nodes)
+    tables = run_tables(chain, per_real)
+    summary["timing"] = {"simulation_s": t_sim, "wall_s": time.perf_counter() - t0}
+    manifest = {
+        "nodesim_version": package_version(),
+        "git_commit": git_commit(),
+        "scenario_sha256": scenario_sha256,
+        "scenario": scenario.model_dump(),
+        "root_seed": scenario.seed,
+        "started_utc": started.isoformat(),
+        "wall_time_s": None,  # set by Run.save: simulation and writing
+        "host": host_info(),
+    }
+    return Run(scenario, summary, manifest, tables, chain.rotation_end_s, chain)
+
+
+class Run:
+    """One simulated run: its scenario, summary, tables and plots (what a run directory holds).
+
+    Tables are pandas DataFrames with the columns of the run directory's CSV files: ``timeseries``
+    (realization 0, one row per node and tick), ``realizations`` (per-realization metrics), ``hops`` (one
+    row per hop), ``surveys`` and ``ground_survey`` (drilling runs; None otherwise).  ``chain`` is the
+    simulation's :class:`nodesim.chain.network.ChainRun` (every per-tick array of every realization) for a
+    run made here, None for a run loaded from a directory.
+    """
+
+    def __init__(self, scenario: Scenario, summary: dict, manifest: dict, tables: dict[str, dict[str, np.ndarray]],
+                 rotation_end_s: float, chain=None):
+        self.scenario = scenario
+        self.summary = summary
+        self.manifest = manifest
+        self._tables = tables
+        self._frames: dict = {}
+        self.rotation_end_s = float(rotation_end_s)
+        self.chain = chain
+
+    def __repr__(self) -> str:
+        s = self.summary
+        azi = s.get("rms_azimuth_error_deg")
+        shown = "n/a" if azi is None else f"{azi:.4g} deg"
+        return (f"Run(scenario={self.scenario.name!r}, engine={s.get('engine')!r}, nodes={s.get('nodes')}, "
+                f"realizations={s.get('realizations')}, seed={s.get('seed')}, rms_azimuth_error={shown}, "
+                f"tables={list(self._tables)})")
+
+    def __eq__(self, other: object) -> bool:
+        """Same scenario, summary (timing included) and tables, value for value (NaN equals NaN)."""
+        if not isinstance(other, Run):
+            return NotImplemented
+        return (self.scenario == other.scenario and self.summary == other.summary
+                and list(self._tables) == list(other._tables)
+                and all(_same_table(self._tables[k], other._tables[k]) for k in self._tables))
+
+    __hash__ = None  # mutable summary timing: not hashable
+
+    # -- tables ---------------------------------------------------------------------------------------------
+    def table(self, name: str):
+        """The table ``name`` (one of :data:`TABLES`) as a DataFrame, or None if this run has none."""
+        if name not in TABLES:
+            raise NodesimError(f"table {name!r}: unknown (allowed: {', '.join(TABLES)})")
+        if name not in self._tables:
+            return None
+        if name not in self._frames:
+            import pandas as pd
+
+            self._frames[name] = pd.DataFrame({k: np.asarray(v) for k, v in self._tables[name].items()})
+        return self._frames[name]
+
+    @property
+    def timeseries(self):
+        return self.table("timeseries")
+
+    @property
+    def realizations(self):
+        return self.table("realizations")
+
+    @property
+    def hops(self):
+        return self.table("hops")
+
+    @property
+    def surveys(self):
+        return self.table("surveys")
+
+    @property
+    def ground_survey(self):
+        return self.table("ground_survey")
+
+    # -- plots ----------------------------------------------------------------------------------------------
+    def plot_yaw(self):
+        """Yaw error and bias estimate of every node against time (realization 0) as a matplotlib Figure."""
+        from nodesim.chain.yaw_plot import yaw_figure
+
+        return yaw_figure(self._tables["timeseries"], self.rotation_end_s, f"{self.scenario.name}: realization 0")
+
+    def plot_wellpath(self, tool: str = "mpu6500_filtered", sigma: str = "2"):
+        """The received surveys' wellpath (realization 0, plan view) with its ISCWSA uncertainty ellipses for
+        ``tool`` at ``sigma`` ("1", "2" or "95") as a matplotlib Figure; drilling runs only."""
+        from nodesim.ground import load_tool, make_survey, propagate
+        from nodesim.ground.ellipsoid import confidence_scale
+        from nodesim.ground.wellpath_plot import uncertainty_figure
+
+        g = self._tables.get("ground_survey")
+        if g is None:
+            raise NodesimError(f"{self.scenario.name}: no surveys to plot (motion.kind = "
+                               f"{self.scenario.motion.kind!r}; wellpaths come from drilling runs)")
+        survey = make_survey(g["md_m"], g["inc_deg"], g["azi_deg"], g["time_s"], where="ground_survey",
+                             sigma_inc_deg=g["sigma_inc_deg"], sigma_azi_deg=g["sigma_azi_deg"])
+        u = propagate(survey, load_tool(tool))
+        return uncertainty_figure(u, confidence_scale(sigma, dof=1),
+                                  f"{self.scenario.name}: realization 0, tool {u.model.name}")
+
+    # -- files ----------------------------------------------------------------------------------------------
+    def save(self, directory: str | Path | None = None, *, plots: bool = True) -> Path:
+        """Write the run directory (what ``nodesim run`` writes; default ``runs/<name>-<UTC timestamp>``).
+
+        Tables first, then the plot, then ``summary.json`` and ``manifest.json`` (a directory with a summary
+        is a finished run).  A directory that already holds a run's files is refused, so runs never mix.
+        """
+        t0 = time.perf_counter()
+        out = Path(directory) if directory is not None else default_run_dir(
+            self.scenario.name, datetime.fromisoformat(self.manifest["started_utc"]))
+        used = [name for name in RUN_FILES if (out / name).exists()]
+        if used:
+            raise NodesimError(f"{out}: already holds a run ({', '.join(used)}); give a new directory")
+        for name, columns in self._tables.items():
+            write_csv(out / f"{name}.csv", columns)
+        if plots:
+            fig = self.plot_yaw()
+            atomic_write_with(out / PLOT_FILE, lambda p: fig.savefig(p, dpi=110, format="png"))
+        timing = self.summary["timing"]
+        timing["save_s"] = time.perf_counter() - t0
+        self.manifest["wall_time_s"] = timing["wall_s"] + timing["save_s"]
+        write_json(out / "summary.json", self.summary)
+        write_json(out / "manifest.json", self.manifest)
+        return out
+
+
+def load_run(directory: str | Path) -> Run:
+    """Read a run directory written by :meth:`Run.save` (or ``nodesim run``) back into a :class:`Run`."""
+    import pandas as pd
+
+    from nodesim.motion.chain_motion import build_motion
+
+    # pandas >= 3 parses floats exactly by default (and deprecates the option); older pandas needs asking
+    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+    d = Path(directory)
+    files = {name: d / name for name in ("summary.json", "manifest.json")}
+    missing = [name for name, path in files.items() if not path.is_file()]
+    if missing:
+        raise NodesimError(f"{d}: not a run directory (no {', '.join(missing)})")
+    try:
+        summary = json.loads(files["summary.json"].read_text())
+        manifest = json.loads(files["manifest.json"].read_text())
+    except (OSError, json.JSONDecodeError) as err:
+        raise NodesimError(f"{d}: unreadable run file ({err})") from None
+    scenario = parse_scenario(manifest.get("scenario", {}), source=f"{files['manifest.json']}: scenario")
+    tables = {}
+    for name in TABLES:
+        path = d / f"{name}.csv"
+        if path.is_file():
+            frame = pd.read_csv(path, keep_default_na=False, na_values=["nan"], **exact)
+            tables[name] = {k: frame[k].to_numpy() for k in frame.columns}
+    if "timeseries" not in tables:
+        raise NodesimError(f"{d}: not a run directory (no timeseries.csv)")
+    return Run(scenario, summary, manifest, tables, build_motion(scenario).rotation_end_s)
+
+
+def _same_table(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:
+    return list(a) == list(b) and all(_same_column(np.asarray(a[k]), np.asarray(b[k])) for k in a)
+
+
+def _same_column(a: np.ndarray, b: np.ndarray) -> bool:
+    if a.shape != b.shape:
+        return False
+    if a.dtype.kind in "biuf" and b.dtype.kind in "biuf":
+        return bool(np.array_equal(a.astype(float), b.astype(float), equal_nan=True))
+    return a.astype(str).tolist() == b.astype(str).tolist()
