@@ -204,9 +204,7 @@ class Run:
         t0 = time.perf_counter()
         out = Path(directory) if directory is not None else default_run_dir(
             self.scenario.name, datetime.fromisoformat(self.manifest["started_utc"]))
-        used = [name for name in RUN_FILES if (out / name).exists()]
-        if used:
-            raise NodesimError(f"{out}: already holds a run ({', '.join(used)}); give a new directory")
+        check_unused(out)
         for name, columns in self._tables.items():
             write_csv(out / f"{name}.csv", columns)
         if plots:
@@ -218,6 +216,13 @@ class Run:
         write_json(out / "summary.json", self.summary)
         write_json(out / "manifest.json", self.manifest)
         return out
+
+
+def check_unused(directory: str | Path) -> None:
+    """Refuse a directory that already holds a run's files (runs never mix; nothing is overwritten)."""
+    used = [name for name in RUN_FILES if (Path(directory) / name).exists()]
+    if used:
+        raise NodesimError(f"{directory}: already holds a run ({', '.join(used)}); give a new directory")
 
 
 def load_run(directory: str | Path) -> Run:

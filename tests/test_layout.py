@@ -147,3 +147,11 @@ def test_package_modules_hold_no_code(package):
     path = module_files()[package]
     body = ast.parse(path.read_text()).body
     assert all(isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant) for n in body), f"{path} holds code"
+
+
+def test_only_the_command_line_imports_the_command_line():
+    """The CLI is a thin top layer: no library module (validation, API, ...) depends on it."""
+    graph = import_graph(module_files())
+    bad = sorted(f"{m} -> {d}" for m, deps in graph.items() if not m.startswith("nodesim.cli")
+                 for d in deps if d.startswith("nodesim.cli"))
+    assert not bad, f"library modules importing the CLI: {bad}"

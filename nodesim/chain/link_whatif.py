@@ -176,9 +176,11 @@ def evaluate_pipe(p: dict, filling: str = "air", mode: str = "TE11", resistivity
     single_radius = radius.size == 1
     cutoffs = {m.name: waveguide.cutoff_frequency_hz(m, p["radius_m"], fill.eps_r, fill.mu_r)
                for m in waveguide.modes_by_cutoff()[:CUTOFF_MODES]}
-    f_scalar = np.ndim(p["frequency_hz"]) == 0
+    # one list of modes only for one point: a swept frequency, radius or water temperature (the filling's
+    # permittivity) changes which modes propagate, point by point
+    one_point = single_radius and np.ndim(p["frequency_hz"]) == 0 and np.ndim(fill.eps_r) == 0
     prop = ([m.name for m in waveguide.propagating_modes(p["frequency_hz"], float(radius[0]), fill)]
-            if single_radius and f_scalar else None)
+            if one_point else None)
     return {
         "cutoff_hz": cutoffs,
         "propagating_modes": prop,

@@ -25,7 +25,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from nodesim.api import simulate_scenario
+    from nodesim.api import check_unused, simulate_scenario
     from nodesim.io.rundir import default_run_dir, dumps_json
     from nodesim.scenario.schema import load_scenario
 
@@ -43,17 +43,18 @@ def run(args) -> int:
     from nodesim.sweep.progress import SimulatedTimeProgress
 
     out = args.out if args.out is not None else default_run_dir(scenario.name)
+    check_unused(out)  # before simulating: a used directory is refused at once
     with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
-        run_ = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
-    out = run_.save(out)
+        result = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
+    out = result.save(out)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 
-        record_chain_run(args.record, run_.chain, scenario)
+        record_chain_run(args.record, result.chain, scenario)
     if args.json:
-        sys.stdout.write(dumps_json(run_.summary).decode())
+        sys.stdout.write(dumps_json(result.summary).decode())
     else:
-        print_summary(run_.summary, out)
+        print_summary(result.summary, out)
     return 0
 
 

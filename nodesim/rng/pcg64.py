@@ -3,7 +3,7 @@
 Building one :class:`numpy.random.Generator` per stream and calling it costs a few microseconds per object
 and per call; a batched run with R realizations has R streams per node and link, so that overhead dominated
 it.  Here the streams are rows of a (M, 4) uint64 state array ``[state_hi, state_lo, inc_hi, inc_lo]`` and
-one compiled call draws from all of them.  The numbers are numpy's, bit for bit (tests/test_pcg64_kernel.py):
+one compiled call draws from all of them.  The numbers are numpy's, bit for bit (tests/nodesim/rng/test_pcg64.py):
 
 * seeding (``PCG64(seed_sequence)``, numpy ``pcg64_set_seed``): words w = seed_sequence.generate_state(4,
   uint64), initstate = w0:w1, initseq = w2:w3; inc = (initseq << 1) | 1, state = 0, step, state += initstate,

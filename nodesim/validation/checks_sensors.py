@@ -9,8 +9,7 @@ from importlib import resources
 import numpy as np
 
 from nodesim.sensors.allan import FLICKER_FLOOR_FACTOR, overlapping_adev, read_noise
-from nodesim.sensors.calibration import least_squares
-from nodesim.cli.calibrate_command import read_positions
+from nodesim.sensors.calibration import least_squares, read_positions
 from nodesim.sensors.catalogue import iscwsa_from_datasheet, load_sensor
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG

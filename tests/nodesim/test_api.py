@@ -147,3 +147,14 @@ def test_importing_nodesim_is_light():
             "'scipy') if m in sys.modules]; print(heavy)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.strip() == "[]"
+
+
+def test_nodesim_run_refuses_a_used_directory_before_simulating(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", str(LAB), "--out", str(out), "--quiet"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    capsys.readouterr()
+    assert main(["run", str(LAB), "--out", str(out), "--quiet", "--seed", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "already holds a run" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before

@@ -10,7 +10,7 @@ from nodesim import threads
 from nodesim.chain.network import simulate_chain
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
-from tests.nodesim.test_chain_compiled import CASES, FIXED, assert_identical
+from tests.nodesim.chain.test_compiled import CASES, FIXED, assert_identical
 
 
 def test_chunks_cover_the_realizations_once_and_evenly():

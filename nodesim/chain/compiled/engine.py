@@ -9,7 +9,7 @@ channels, links with their draw streams, faults: the same objects the SimPy engi
    :mod:`.fixed_kernel`), since estimates only flow down;
 3. fills the nodes', links' and radios' records, so :meth:`Network.result` builds the same :class:`ChainRun`.
 
-Bit-identical to the SimPy engine (tests/nodesim/test_chain_compiled.py compares every record).  Covered:
+Bit-identical to the SimPy engine (tests/nodesim/chain/test_compiled.py compares every record).  Covered:
 lab motion (every node present from t = 0, node 1 on top), every schedule, simple and channel links, the MAC,
 node failures, outages, bursts, clock steps and the fallback, float and fixed filters (default fixed-point
 policy).  Drilling runs (tube insertions, holds, survey stops and surveys going up) stay on the SimPy engine.

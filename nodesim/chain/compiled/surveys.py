@@ -10,7 +10,7 @@ of them, as ``cumsum`` forms them).  The unit vector of A comes from rotating th
     cos A = (f'_x cos psi - f'_y sin psi) / h,   sin A = (f'_y cos psi + f'_x sin psi) / h
 (one atan2 and one remainder fewer per tick: ~30 % of this pass).  So I is the numpy functions' value bit for
 bit, the averaged A agrees with them to rounding (an angle error of ~1e-16 / |mean unit vector|), and chain
-runs and replays, which both call this, agree bit for bit: tests/nodesim/test_chain_surveys.py.
+runs and replays, which both call this, agree bit for bit: tests/nodesim/chain/test_surveys.py.
 """
 
 from __future__ import annotations

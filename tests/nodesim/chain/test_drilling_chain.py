@@ -14,7 +14,7 @@ from nodesim.cli.main import main
 from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG, wrap_pi
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 FIELD = REPO / "scenarios" / "field" / "drilling_10_tubes.toml"
 
 

@@ -122,3 +122,11 @@ def test_packet_error_rate_follows_the_margin(capsys):
     assert pipe["packet_error_rate"][0] == 0.0 and pipe["packet_error_rate"][-1] == 1.0
     below = run_json(capsys, "pipe", "--sweep", "frequency_hz=2e9:5e9:4")
     assert below["packet_error_rate"][0] == pytest.approx(1.0) and below["snr_db"][0] is None
+
+
+def test_water_filled_pipe_swept_over_temperature(capsys):
+    """Water's permittivity follows the swept temperature: the attenuation is a curve, the mode list is
+    per point (null), and nothing crashes (it raised 'truth value of an array is ambiguous')."""
+    out = run_json(capsys, "pipe", "--filling", "water", "--sweep", "temperature_c=5:35:3")
+    assert out["propagating_modes"] is None and len(out["attenuation_db_per_m"]) == 3
+    assert len(set(out["attenuation_db_per_m"])) == 3

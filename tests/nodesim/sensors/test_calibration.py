@@ -7,8 +7,14 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from nodesim.sensors.calibration import calibrate, least_squares, simulate_positions, six_position_rates, turntable
-from nodesim.cli.calibrate_command import read_positions
+from nodesim.sensors.calibration import (
+    calibrate,
+    least_squares,
+    read_positions,
+    simulate_positions,
+    six_position_rates,
+    turntable,
+)
 from nodesim.cli.main import main
 from nodesim.errors import NodesimError
 
