@@ -13,9 +13,9 @@ numba, pandas or matplotlib).
 """
 
 from nodesim.errors import NodesimError
-from nodesim.io.rundir import package_version
+from nodesim.io.rundir import package_version as _package_version
 
-__version__ = package_version()
+__version__ = _package_version()
 
 __all__ = ["NodesimError", "Run", "Scenario", "__version__", "load_run", "simulate"]
 
@@ -30,3 +30,7 @@ def __getattr__(name: str):
 
         return Scenario
     raise AttributeError(f"module 'nodesim' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
