@@ -1,12 +1,9 @@
-"""Run directories: manifest, summary, tables and plots, every file written atomically.
+"""Run-directory files, every one written atomically, and the facts a manifest records.
 
-Layout of ``--out DIR`` (default ``runs/<scenario-name>-<UTC timestamp>``):
-    manifest.json      package version, git commit, scenario file hash, resolved scenario, root seed,
-                       wall time, host
-    summary.json       flat headline metrics (see nodesim.metrics); timing fields under "timing"
-    realizations.csv   one row per realization with the per-realization metrics
-    timeseries.csv     per-tick outputs of realization 0 (pandas.read_csv loads it directly)
-    yaw_error.png      yaw and bias estimation errors of realization 0
+A run directory (:meth:`nodesim.api.Run.save`; default ``runs/<scenario-name>-<UTC timestamp>``) holds
+``manifest.json`` (package version, git commit, scenario hash, resolved scenario, root seed, wall time,
+host), ``summary.json`` (flat headline metrics, :mod:`nodesim.chain.metrics`; timing under "timing"), the
+CSV tables of :mod:`nodesim.chain.run_tables` and ``yaw_error.png``.
 
 Atomic writes: each file is written to a temporary file in the same directory and renamed into place, so
 an interrupted run never leaves a half-written file under its final name.
