@@ -16,6 +16,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
+	rm -rf runs/demo-continuous  # the demo's own directory: a run never writes into a used one
 	$(BIN)/nodesim run scenarios/lab/continuous.toml --out runs/demo-continuous
 
 test: $(STAMP)
