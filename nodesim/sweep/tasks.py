@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import socket
 import time
 import traceback
@@ -59,6 +60,8 @@ def run_point(task: RunTask) -> dict:
     digest = hashlib.sha256(dumps_json(task.scenario)).hexdigest()
     run = simulate_scenario(scenario, digest)
     if task.keep_dir is not None:
+        # the directory is this task's own: an earlier attempt (a retry, a resumed campaign) is replaced
+        shutil.rmtree(task.keep_dir, ignore_errors=True)
         run.save(Path(task.keep_dir))
     return select_metrics(run.summary, task.metrics)
 

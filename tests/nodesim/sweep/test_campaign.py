@@ -249,3 +249,16 @@ def test_dask_worker_that_dies_is_replaced_and_its_run_finishes(make_sweep, tmp_
         res = run_campaign(spec, tmp_path / "c", ex, quiet=True, run_fn=busy_run, tasks=tasks)
     assert marker.exists()
     assert res.ok == 3 and res.failed == 0
+
+
+def test_a_kept_run_directory_is_replaced_when_its_task_runs_again(make_sweep, tmp_path):
+    """keep_runs: a retried or resumed task owns DIR/runs/<run_id> and replaces an earlier attempt's files
+    (a Run refuses a used directory anywhere else)."""
+    from nodesim.sweep.tasks import run_point
+
+    spec = load_sweep(make_sweep("keep_runs = true\n" + SMALL))
+    task = spec.plan(tmp_path / "campaign")[0]
+    first = run_point(task)
+    (Path(task.keep_dir) / "summary.json").write_text("{}")  # an earlier, different attempt
+    assert run_point(task) == first
+    assert json.loads((Path(task.keep_dir) / "summary.json").read_text())["scenario"] == "short"
