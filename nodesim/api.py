@@ -24,19 +24,19 @@ import numpy as np
 
 from nodesim.errors import NodesimError
 from nodesim.io.rundir import (
-    atomic_write_with,
     default_run_dir,
     git_commit,
     host_info,
     package_version,
     write_csv,
     write_json,
+    write_png,
 )
 from nodesim.scenario.schema import Scenario, parse_scenario, read_scenario
 
 TABLES = ("realizations", "timeseries", "hops", "surveys", "ground_survey")  # <name>.csv, in writing order
-RUN_FILES = ("summary.json", "manifest.json", "yaw_error.png") + tuple(f"{t}.csv" for t in TABLES)
 PLOT_FILE = "yaw_error.png"
+RUN_FILES = ("summary.json", "manifest.json", PLOT_FILE) + tuple(f"{t}.csv" for t in TABLES)
 
 
 def simulate(
@@ -208,8 +208,7 @@ class Run:
         for name, columns in self._tables.items():
             write_csv(out / f"{name}.csv", columns)
         if plots:
-            fig = self.plot_yaw()
-            atomic_write_with(out / PLOT_FILE, lambda p: fig.savefig(p, dpi=110, format="png"))
+            write_png(out / PLOT_FILE, self.plot_yaw())
         timing = self.summary["timing"]
         timing["save_s"] = time.perf_counter() - t0
         self.manifest["wall_time_s"] = timing["wall_s"] + timing["save_s"]

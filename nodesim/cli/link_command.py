@@ -177,7 +177,7 @@ def link_figure(medium: str, values: dict, sweep, out: dict, opts: dict) -> Figu
 
 def _plot(medium: str, values: dict, sweep, out: dict, opts: dict, path: Path) -> None:
     """Write :func:`link_figure` to ``path`` as PNG, atomically."""
-    from nodesim.io.rundir import atomic_write_with
+    from nodesim.io.rundir import write_png
 
     fig = link_figure(medium, values, sweep, out, opts)
-    atomic_write_with(path, lambda p: fig.savefig(p, dpi=100, format="png"))
+    write_png(path, fig, dpi=100)

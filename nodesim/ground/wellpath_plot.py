@@ -10,7 +10,7 @@ from matplotlib.patches import Ellipse
 
 from nodesim.ground.covariance import Uncertainty
 from nodesim.ground.ellipsoid import horizontal_ellipse
-from nodesim.io.rundir import atomic_write_with
+from nodesim.io.rundir import write_png
 
 
 MAX_ELLIPSES = 200
@@ -59,5 +59,4 @@ def uncertainty_figure(u: Uncertainty, scale: float, title: str) -> Figure:
 
 def plot_uncertainty(u: Uncertainty, path: Path, scale: float, title: str) -> None:
     """Write :func:`uncertainty_figure` to ``path`` as PNG, atomically."""
-    fig = uncertainty_figure(u, scale, title)
-    atomic_write_with(path, lambda f: fig.savefig(f, dpi=110, format="png"))
+    write_png(path, uncertainty_figure(u, scale, title))

@@ -58,6 +58,11 @@ def atomic_write_with(path: Path, writer: Callable[[Path], None]) -> None:
         raise
 
 
+def write_png(path: Path, fig, dpi: int = 110) -> None:
+    """Save a matplotlib Figure to ``path`` as PNG at ``dpi``, atomically (:func:`atomic_write_with`)."""
+    atomic_write_with(path, lambda p: fig.savefig(p, dpi=dpi, format="png"))
+
+
 def dumps_json(obj: Any) -> bytes:
     """Deterministic JSON: sorted keys, fixed indentation, NaN/inf turned into null."""
     import numpy as np  # here, not at module top: the CLI parsers import this module and must start fast

@@ -20,7 +20,7 @@ import numpy as np
 from nodesim.replay.compare import QuantityDiff, recorded_at_ticks
 from nodesim.replay.reader import NodeLog
 from nodesim.replay.replayer import NodeReplay
-from nodesim.io.rundir import atomic_write_with, write_csv
+from nodesim.io.rundir import write_csv, write_png
 from nodesim.units import rad_to_deg, wrap_pi
 
 if TYPE_CHECKING:
@@ -118,7 +118,7 @@ def replay_figure(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], title
 def plot_replay(logs: tuple[NodeLog, ...], reps: tuple[NodeReplay, ...], path: Path, title: str) -> None:
     """Write :func:`replay_figure` to ``path`` as PNG, atomically."""
     fig = replay_figure(logs, reps, title)
-    atomic_write_with(path, lambda p: fig.savefig(p, dpi=110, format="png"))
+    write_png(path, fig)
 
 
 def write_tables(out: Path, logs, reps, diffs, plots: bool, title: str) -> None:

@@ -173,7 +173,7 @@ def adev_figure(curves: dict[str, AllanCurve], title: str = "Allan deviation", u
 
 def plot_adev(curves: dict[str, AllanCurve], path: Path, title: str = "Allan deviation", unit: str = "deg/s", scale: float = 1.0) -> None:
     """Write :func:`adev_figure` to ``path`` as PNG, atomically."""
-    from nodesim.io.rundir import atomic_write_with
+    from nodesim.io.rundir import write_png
 
     fig = adev_figure(curves, title, unit, scale)
-    atomic_write_with(path, lambda p: fig.savefig(p, dpi=110, format="png"))
+    write_png(path, fig)

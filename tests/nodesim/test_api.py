@@ -39,13 +39,18 @@ def test_simulate_writes_nothing_and_returns_tables_as_dataframes(lab_run, tmp_p
     assert "Run(scenario='lab-continuous'" in repr(lab_run) and "nodes=2" in repr(lab_run)
 
 
+@pytest.fixture(scope="module")
+def short_reference():
+    return nodesim.simulate(LAB, seed=3, **SHORT)
+
+
 @pytest.mark.parametrize("kind", ["path", "str", "toml", "dict", "scenario"])
-def test_every_kind_of_scenario_source_gives_the_same_run(kind):
+def test_every_kind_of_scenario_source_gives_the_same_run(kind, short_reference):
     text = LAB.read_text()
     source = {"path": LAB, "str": str(LAB), "toml": text, "dict": tomllib.loads(text),
               "scenario": nodesim.Scenario.model_validate(tomllib.loads(text))}[kind]
     run = nodesim.simulate(source, seed=3, **SHORT)
-    reference = nodesim.simulate(LAB, seed=3, **SHORT)
+    reference = short_reference
     assert run.timeseries.equals(reference.timeseries)
     assert {k: v for k, v in run.summary.items() if k != "timing"} == \
         {k: v for k, v in reference.summary.items() if k != "timing"}
