@@ -11,7 +11,7 @@
   the loop is timed on 400 filters and scaled per realization-step (its cost is linear in the count).
   ``batched_fixed_filter_speedup_vs_filterpy`` is the same for the fixed-point filter.
 - ``fixed_kernel_speedup_vs_numpy_r1``: 2000 predict+update steps of one fixed-point filter (R = 1) through
-  ``FixedYawFilter`` over the same steps through the numba kernels of ``nodesim.chain.compiled.fixed_kernel``
+  ``FixedYawFilter`` over the same steps through the numba kernels of ``firmware_model.fixed_kernel``
   in an njit loop (warmed up first); ``fixed_kernel_bits_equal`` is 1.0 when both end in the same raws and
   overflow counts; ``fixed_kernel_compile_s`` the kernels' first call in a fresh process with an empty numba
   cache (compilation from scratch; later processes load the on-disk cache).
@@ -33,7 +33,7 @@ from firmware_model import fixedpoint as fp
 from firmware_model.fixedpoint import Overflow, QFormat, Rounding
 from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter, wrap_pi
 from nodesim.bench import best_time_s
-from nodesim.chain.compiled import fixed_kernel as fk
+from firmware_model import fixed_kernel as fk
 from nodesim.errors import NodesimError
 
 N_ELEMENTS = 100_000
@@ -138,7 +138,7 @@ import numpy as np
 t0 = time.perf_counter()
 from firmware_model.fixed_filter import FixedYawFilter
 from firmware_model.yaw_filter import YawFilterConfig
-from nodesim.chain.compiled import fixed_kernel as fk
+from firmware_model import fixed_kernel as fk
 kf = FixedYawFilter(YawFilterConfig(dt_s=0.5, arw_rad_per_sqrt_s=1e-4, bias_instability_rad_s=1e-5, bias_tau_s=500.0), 1)
 params, state, counts = fk.kernel_params(kf), fk.lane_states(kf)[0], np.zeros(len(fk.SITES), dtype=np.int64)
 t1 = time.perf_counter()

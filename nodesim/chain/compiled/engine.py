@@ -6,7 +6,7 @@ channels, links with their draw streams, faults: the same objects the SimPy engi
 1. resolves every tick, frame and packet in SimPy's event order in one compiled loop
    (:mod:`.events`, :mod:`.mac_kernel`): which reference each node takes at each tick in each realization;
 2. runs each node's filter over its ticks, top node first (:mod:`.filters` with :mod:`.float_kernel` or
-   :mod:`.fixed_kernel`), since estimates only flow down;
+   :mod:`firmware_model.fixed_kernel`), since estimates only flow down;
 3. fills the nodes', links' and radios' records, so :meth:`Network.result` builds the same :class:`ChainRun`.
 
 Bit-identical to the SimPy engine (tests/nodesim/chain/test_compiled.py compares every record).  Covered:
@@ -27,7 +27,8 @@ import numpy as np
 from nodesim import threads
 from nodesim.rng import pcg64
 from nodesim.chain.compiled import events as ev
-from nodesim.chain.compiled import filters, fixed_kernel, float_kernel
+from firmware_model import fixed_kernel
+from nodesim.chain.compiled import filters, float_kernel
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario

@@ -10,7 +10,7 @@ realization r, as :class:`nodesim.chain.node_process.ChainNode` does it:
         psi_ref = psi_hat_(n-s)[j] + omega transfer                                  (thesis eq 3.29)
         R = P_(n-s)[j] + (transfer sigma_rate)^2 + sigma_off^2                        (thesis digest 2.6)
     record yaw, P_yy and bias.
-The filter arithmetic is :mod:`.float_kernel` or :mod:`.fixed_kernel` (``fixed``), on the state of
+The filter arithmetic is :mod:`.float_kernel` or :mod:`firmware_model.fixed_kernel` (``fixed``), on the state of
 that kind (``fstate`` (R, 5) float64 or ``istate`` (R, 5) int64 raws; the other one is a placeholder).
 The three dispatchers are inlined into the tick loop at numba's IR level (a call passing five arrays cost
 more than a float predict: 1000 realizations x 228 ticks, float 8.8 -> 5.4 ms, fixed 42 -> 33 ms).
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from nodesim.chain.compiled import fixed_kernel as fxk
+from firmware_model import fixed_kernel as fxk
 from nodesim.chain.compiled import float_kernel as flk
 
 

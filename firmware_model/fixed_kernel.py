@@ -18,7 +18,7 @@ binary angle wraps) on int64 scalars, so the bits and the per-site overflow coun
 Float operations keep the class's order (``rate * RAD_TO_DEG``, ``ref / TURN_RAD``, ``var * RAD_TO_DEG**2``,
 ``to_float(yaw) * TURN_RAD`` ...) and no fastmath, so the floats are the same doubles.  Only the default
 policy (HALF_EVEN, SATURATE) is compiled; :func:`kernel_params` rejects any other.  Shifts outside what
-:mod:`firmware_model.fixedpoint` allows raise :class:`~nodesim.errors.NodesimError` at the first use, where
+:mod:`firmware_model.fixedpoint` allows raise :class:`~firmware_model.errors.FirmwareError` at the first use, where
 the class raises ``FirmwareError``.
 
 The primitives and the raw steps are plain njit functions called from the caller's compiled loop.  They were
@@ -41,7 +41,7 @@ from numba import njit
 from firmware_model import fixed_fast
 from firmware_model.fixed_filter import RAD_TO_DEG, TURN_RAD, FixedYawFilter
 from firmware_model.fixedpoint import MAX_SHIFT, Overflow, Rounding
-from nodesim.errors import NodesimError
+from firmware_model.errors import FirmwareError
 
 SITES: tuple[str, ...] = (
     # predict
@@ -85,13 +85,13 @@ def kernel_params(kf: FixedYawFilter) -> np.ndarray:
     """int64[N_PARAMS]: the formats (word, frac bits) and the constants (raw, frac, word bits) of ``kf``."""
     f = kf.formats
     if kf.ctx.rounding is not Rounding.HALF_EVEN or kf.ctx.overflow is not Overflow.SATURATE:
-        raise NodesimError(
+        raise FirmwareError(
             f"compiled fixed filter: policy rounding={kf.ctx.rounding.value}, overflow={kf.ctx.overflow.value}; "
             f"allowed only rounding={Rounding.HALF_EVEN.value}, overflow={Overflow.SATURATE.value}")
     for name in STATE_FIELDS:
         fmt = getattr(kf, name).fmt
         if fmt != getattr(f, name):
-            raise NodesimError(f"compiled fixed filter: state {name} is in {fmt}, formats.{name} = {getattr(f, name)}")
+            raise FirmwareError(f"compiled fixed filter: state {name} is in {fmt}, formats.{name} = {getattr(f, name)}")
     p = np.zeros(N_PARAMS, dtype=np.int64)
     for name, i in _FMT.items():
         fmt = getattr(f, name)
@@ -100,7 +100,7 @@ def kernel_params(kf: FixedYawFilter) -> np.ndarray:
         c = getattr(kf, name)
         raw = np.asarray(c.raw, dtype=np.int64)
         if raw.size != 1:
-            raise NodesimError(f"compiled fixed filter: constant {name} has {raw.size} values; allowed one")
+            raise FirmwareError(f"compiled fixed filter: constant {name} has {raw.size} values; allowed one")
         p[i], p[i + 1], p[i + 2] = raw.reshape(-1)[0], c.fmt.frac_bits, c.fmt.word_bits
     return p
 
@@ -125,12 +125,12 @@ def _sat(x, frac_in, w, f, counts, site):
     s = frac_in - f
     if s > 0:
         if s > MAX_SHIFT:
-            raise NodesimError("compiled fixed filter: a right shift exceeds 62 bits (formats outside fixedpoint's range)")
+            raise FirmwareError("compiled fixed filter: a right shift exceeds 62 bits (formats outside fixedpoint's range)")
         x = (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
     elif s < 0:
         ls = -s
         if ls > MAX_SHIFT:
-            raise NodesimError("compiled fixed filter: a left shift exceeds 62 bits (formats outside fixedpoint's range)")
+            raise FirmwareError("compiled fixed filter: a left shift exceeds 62 bits (formats outside fixedpoint's range)")
         if x > (hi >> ls):
             counts[site] += 1
             return hi
@@ -151,7 +151,7 @@ def _sat(x, frac_in, w, f, counts, site):
 def _aligned(a, fa, b, fb, sign):
     """((int64_t)a << sa) +/- ((int64_t)b << sb) in the finer format; returns (sum, its frac bits)."""
     if abs(fa - fb) > MAX_ALIGN:
-        raise NodesimError("compiled fixed filter: add/sub of formats whose fraction bits differ by more than 31")
+        raise FirmwareError("compiled fixed filter: add/sub of formats whose fraction bits differ by more than 31")
     fm = max(fa, fb)
     xa, xb = a << (fm - fa), b << (fm - fb)
     return (xa + xb if sign > 0 else xa - xb), fm
@@ -180,7 +180,7 @@ def _div(a, fa, b, fb, p, i, counts, site):
     w, f = p[i], p[i + 1]
     s = f - fa + fb
     if abs(s) > MAX_DIV_SHIFT:
-        raise NodesimError("compiled fixed filter: division shift outside -30..30 (formats outside fixedpoint's range)")
+        raise FirmwareError("compiled fixed filter: division shift outside -30..30 (formats outside fixedpoint's range)")
     n, d = a, b
     if s >= 0:
         n = n << s
@@ -264,7 +264,7 @@ def predict(state, rate_rad_s, params, counts):
     """FixedYawFilter.predict of one lane: the rate in rad/s crosses into Q deg/s (site "gyro rate")."""
     v = rate_rad_s * RAD_TO_DEG
     if not math.isfinite(v):
-        raise NodesimError("gyro rate: non-finite value (or one whose deg/s value overflows); allowed finite rad/s")
+        raise FirmwareError("gyro rate: non-finite value (or one whose deg/s value overflows); allowed finite rad/s")
     _predict_raw(state, _from_float_sat(v, params[W_RATE], params[W_RATE + 1], counts, S_GYRO), params, counts)
 
 
@@ -293,12 +293,12 @@ def _update_raw(state, ref_raw, r_raw, params, counts):
 def update(state, ref_rad, var_rad2, params, counts):
     """FixedYawFilter.update of one lane with the mask True."""
     if not (math.isfinite(ref_rad) and math.isfinite(var_rad2)):
-        raise NodesimError("reference yaw/variance: non-finite value; allowed finite numbers")
+        raise FirmwareError("reference yaw/variance: non-finite value; allowed finite numbers")
     if var_rad2 < 0:
-        raise NodesimError("reference variance: negative value; allowed >= 0 (rad^2)")
+        raise FirmwareError("reference variance: negative value; allowed >= 0 (rad^2)")
     v = var_rad2 * RAD2_TO_DEG2
     if not math.isfinite(v):
-        raise NodesimError("reference variance: its deg^2 value overflows; allowed finite numbers")
+        raise FirmwareError("reference variance: its deg^2 value overflows; allowed finite numbers")
     ref_raw = _from_float_wrap(ref_rad / TURN_RAD, params[W_YAW], params[W_YAW + 1])
     r_raw = _from_float_sat(v, params[W_YY], params[W_YY + 1], counts, S_REF_VAR)
     _update_raw(state, ref_raw, r_raw, params, counts)

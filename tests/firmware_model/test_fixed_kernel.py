@@ -1,4 +1,4 @@
-"""The numba kernels of nodesim.chain.compiled.fixed_kernel give FixedYawFilter's bits, floats and per-site
+"""The numba kernels of firmware_model.fixed_kernel give FixedYawFilter's bits, floats and per-site
 overflow counts lane by lane: random predict/update sequences (hypothesis) on the default formats and on
 narrow words (where intermediates saturate), from the constructor's state and from arbitrary ("wild") states;
 the class is compared with its fused fast path on (as the chain runs it) and off (the exact path alone)."""
@@ -17,8 +17,8 @@ from firmware_model.fixed_filter import TURN_RAD, FixedFormats, FixedYawFilter
 from firmware_model.fixedpoint import Fx, Overflow, QFormat, Rounding
 from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import YawFilterConfig
-from nodesim.chain.compiled import fixed_kernel as fk
-from nodesim.errors import NodesimError
+from firmware_model import fixed_kernel as fk
+from firmware_model.errors import FirmwareError
 
 DEG = math.pi / 180.0
 CFG = YawFilterConfig(dt_s=1.0 / 1.9, arw_rad_per_sqrt_s=7.38e-3 * DEG, bias_instability_rad_s=3.33e-3 * DEG,
@@ -231,7 +231,7 @@ def test_zero_and_negative_divisors(p_yy, saturates):
 def test_other_policies_are_rejected():
     for kw in ({"rounding": Rounding.FLOOR}, {"overflow": Overflow.WRAP}):
         kf = FixedYawFilter(CFG, 1, formats=FixedFormats(**kw))
-        with pytest.raises(NodesimError, match="allowed only rounding=half_even, overflow=saturate"):
+        with pytest.raises(FirmwareError, match="allowed only rounding=half_even, overflow=saturate"):
             fk.kernel_params(kf)
 
 
@@ -240,21 +240,21 @@ def test_bad_inputs_raise_like_the_class():
     lanes = Lanes(kf)
     state, params, counts = lanes.states[0], lanes.params, lanes.counts[0]
     for ref, var in ((math.nan, 0.1), (0.1, math.inf), (0.1, -1e-9), (0.1, 1e306)):
-        with pytest.raises(NodesimError, match="reference"):
+        with pytest.raises(FirmwareError, match="reference"):
             fk.update(state, ref, var, params, counts)
     for rate in (math.inf, 1e307):
-        with pytest.raises(NodesimError, match="gyro rate"):
+        with pytest.raises(FirmwareError, match="gyro rate"):
             fk.predict(state, rate, params, counts)
     np.testing.assert_array_equal(lanes.states, fk.lane_states(kf))  # nothing changed
 
 
 def test_formats_whose_division_the_class_rejects_raise():
-    """At 10 bits the class's 1 / S shift is -34 (FirmwareError); the kernel raises NodesimError there too."""
+    """At 10 bits the class's 1 / S shift is -34 (FirmwareError); the kernel raises it there too."""
     kf, _ = build(10, 1)
     with pytest.raises(Exception, match="-30..30"):
         kf.update(np.array([0.1]), np.array([0.01]))
     lanes = Lanes(kf)
-    with pytest.raises(NodesimError, match="-30..30"):
+    with pytest.raises(FirmwareError, match="-30..30"):
         lanes.update([0.1], [0.01])
 
 

@@ -1,0 +1,3 @@
+#include "node_firmware.h"
+
+int32_t nf_abi_version(void) { return 1; }

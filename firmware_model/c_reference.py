@@ -1,0 +1,80 @@
+"""Build the C reference firmware (``firmware_model/c/*.c``) on the host with cffi and load it.
+
+The C sources are portable C99 (``int32_t``/``int64_t``, explicit shifts, rounding and saturation); every
+header marks the declarations Python may call between ``/* cdef-begin */`` and ``/* cdef-end */`` (plain C
+declarations cffi can parse, no preprocessor lines).  :func:`load` compiles all sources into one extension
+module, cached under ``~/.cache/nodesim/c_reference/<hash of the sources>`` (or ``$NODESIM_C_CACHE``), and
+returns ``(ffi, lib)``.  cffi is a test dependency (the ``test`` extra): the simulator never needs it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import re
+import sys
+from pathlib import Path
+
+from firmware_model.errors import FirmwareError
+
+C_DIR = Path(__file__).with_name("c")
+CFLAGS = ["-std=c99", "-O2", "-Wall", "-Werror", "-fwrapv"]
+_CDEF = re.compile(r"/\* cdef-begin \*/(.*?)/\* cdef-end \*/", re.S)
+_LOADED: dict[str, tuple] = {}
+
+
+def sources() -> list[Path]:
+    """The C files of the reference firmware, in a fixed order."""
+    return sorted(C_DIR.glob("*.c"))
+
+
+def headers() -> list[Path]:
+    return sorted(C_DIR.glob("*.h"))
+
+
+def cdefs() -> str:
+    """The callable declarations of every header (the text between the cdef markers)."""
+    return "\n".join(m.group(1) for h in headers() for m in _CDEF.finditer(h.read_text()))
+
+
+def _digest() -> str:
+    h = hashlib.sha256()
+    for p in headers() + sources():
+        h.update(p.name.encode() + b"\0" + p.read_bytes() + b"\0")
+    h.update(" ".join(CFLAGS).encode())
+    return h.hexdigest()[:16]
+
+
+def _cache_dir() -> Path:
+    root = os.environ.get("NODESIM_C_CACHE") or str(Path.home() / ".cache" / "nodesim" / "c_reference")
+    return Path(root)
+
+
+def load():
+    """(ffi, lib) of the compiled C reference (compiled once per source version)."""
+    key = _digest()
+    if key in _LOADED:
+        return _LOADED[key]
+    try:
+        import cffi
+    except ImportError as e:  # pragma: no cover - the test extra installs it
+        raise FirmwareError("the C reference needs cffi: pip install 'nodesim[test]'") from e
+    name = f"_nodesim_cref_{key}"
+    out = _cache_dir() / key
+    out.mkdir(parents=True, exist_ok=True)
+    built = sorted(out.glob(f"{name}*.so"))
+    if not built:
+        ffi = cffi.FFI()
+        ffi.cdef(cdefs())
+        includes = "".join(f'#include "{h.name}"\n' for h in headers())
+        ffi.set_source(name, includes, sources=[str(s) for s in sources()], include_dirs=[str(C_DIR)],
+                       extra_compile_args=CFLAGS)
+        ffi.compile(tmpdir=str(out), verbose=False)
+        built = sorted(out.glob(f"{name}*.so"))
+    spec = importlib.util.spec_from_file_location(name, built[0])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    _LOADED[key] = (module.ffi, module.lib)
+    return _LOADED[key]
