@@ -1,17 +1,22 @@
-"""Filter adapter: the one place where the chain builds and drives a node's yaw filter.
+"""Filter adapter: the one place where the chain builds and drives a node's yaw filter (and, for the fixed-point
+implementation, the whole node firmware of :mod:`firmware_model.node_firmware`).
 
 It builds the firmware model's filter named by ``filter.implementation`` (``float`` or the bit-exact
 ``fixed``, :func:`firmware_model.filter_factory.make_yaw_filter`; batched over realizations:
 ``predict(rate)``, ``update(reference, variance, mask)``, ``yaw_rad``, ``bias_rad_s``,
 ``yaw_variance_rad2``, ``overflow_counts``) and forms the node-to-node reference with the firmware
-model's eq 3.29 helpers.  The reference is advanced in float for both implementations (the transfer
-time differs per realization when packets are lost); the fixed filter quantises it on update.
+model's eq 3.29 helpers.  The float implementation is the reference path: the chain forms its
+reference in float (:func:`forwarded_reference`).  The fixed implementation runs the firmware pipeline on integers
+from the sensor counts on (:class:`FirmwareLanes`, the same njit code as the compiled engine).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from firmware_model import fixed_kernel as fk
+from firmware_model import node_firmware as nf
+from firmware_model.config import FirmwareConfig
 from firmware_model.fixed_filter import FixedFormats
 from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import (
@@ -62,3 +67,86 @@ def forwarded_reference(yaw_rad, variance_rad2, rate_rad_s, transfer_s, rate_sig
     digest 2.6): psi_hat_(n-1) + omega_hat_n dt,  P_(n-1) + (dt sigma_rate)^2 + sigma_off^2."""
     ref = advance_reference(yaw_rad, rate_rad_s, transfer_s)
     return ref, chain_reference_variance(variance_rad2, transfer_s, rate_sigma_rad_s, offset_sigma_rad)
+
+
+def firmware_config(scenario: Scenario, sigma_rate_rad_s: float) -> FirmwareConfig:
+    """The fixed-point firmware build of ``scenario`` (``sigma_rate_rad_s``: the per-tick gyro white-noise sigma
+    of the transfer term of R)."""
+    c = scenario.chain
+    return FirmwareConfig(
+        filter=filter_config(scenario),
+        formats=FixedFormats().with_word_length(scenario.filter.fixed_word_bits),
+        gyro_full_scale_dps=getattr(scenario.sensor, "gyro_full_scale_dps", 250),
+        sigma_rate_rad_s=float(sigma_rate_rad_s),
+        offset_sigma_rad=c.offset_sigma_deg * DEG,
+        encoder_counts_per_rev=scenario.sensor.encoder_counts_per_rev,
+        extrapolate_rate=c.rate_compensation == "extrapolated",
+    )
+
+
+def timer_us(interval_s) -> np.ndarray:
+    """An interval as the node's microsecond timer measures it (round to nearest: ``rint(x * 1e6)``; the compiled
+    engine computes the same expression)."""
+    return np.rint(np.asarray(interval_s, dtype=float) * 1e6).astype(np.int64)
+
+
+class FirmwareLanes:
+    """One node's fixed-point firmware in every realization (:func:`firmware_model.node_firmware.node_tick` per
+    lane); the SimPy engine's view of what the compiled engine runs in its loop."""
+
+    def __init__(self, config: FirmwareConfig, realizations: int):
+        self.config = config
+        self.params, self.fparams = config.params(), config.filter_params()
+        self.states = np.zeros((realizations, nf.STATE_SIZE), dtype=np.int64)
+        for r in range(realizations):
+            nf.init_lane(self.states[r])
+        self.counts = np.zeros(len(nf.SITES), dtype=np.int64)
+        self.inputs = np.zeros((realizations, len(nf.INPUTS)), dtype=np.int64)
+        self.outputs = np.zeros((realizations, len(nf.OUTPUTS)), dtype=np.int64)
+
+    def tick(self, phase: int, gyro_z_sum, n, yaw0_raw=0, ref=None, ref_yaw_raw=0, ref_aux_raw=0, transfer_us=0):
+        """One firmware tick of every lane; ``ref`` (R,) the kind of reference per lane (NO_REF where None)."""
+        x = self.inputs
+        x[:, nf.IN_PHASE] = phase
+        x[:, nf.IN_GZ] = gyro_z_sum
+        x[:, nf.IN_N] = n
+        x[:, nf.IN_YAW0] = yaw0_raw
+        x[:, nf.IN_REF] = nf.NO_REF if ref is None else ref
+        x[:, nf.IN_REF_YAW] = ref_yaw_raw
+        x[:, nf.IN_REF_AUX] = ref_aux_raw
+        x[:, nf.IN_TRANSFER] = transfer_us
+        nf.node_tick_lanes(self.states, self.params, self.fparams, self.counts, x, self.outputs)
+        return self.outputs
+
+    @property
+    def yaw_raw(self) -> np.ndarray:
+        return self.states[:, fk.I_YAW].copy()
+
+    @property
+    def var_raw(self) -> np.ndarray:
+        return self.states[:, fk.I_PYY].copy()
+
+    @property
+    def yaw_rad(self) -> np.ndarray:
+        return yaw_rad_of_raw(self.states[:, fk.I_YAW], self.fparams)
+
+    @property
+    def yaw_variance_rad2(self) -> np.ndarray:
+        return np.ldexp(self.states[:, fk.I_PYY].astype(float), -int(self.fparams[fk.W_YY + 1])) / fk.RAD2_TO_DEG2
+
+    @property
+    def bias_rad_s(self) -> np.ndarray:
+        return np.ldexp(self.states[:, fk.I_BIAS].astype(float), -int(self.fparams[fk.W_BIAS + 1])) / fk.RAD_TO_DEG
+
+    def rate_rad_s(self, rate_raw) -> np.ndarray:
+        return np.ldexp(np.asarray(rate_raw).astype(float), -int(self.fparams[fk.W_RATE + 1])) / fk.RAD_TO_DEG
+
+    @property
+    def overflow_counts(self) -> dict[str, int]:
+        return {nf.SITES[i]: int(c) for i, c in enumerate(self.counts) if c}
+
+
+def yaw_rad_of_raw(yaw_raw, fparams) -> np.ndarray:
+    """A binary angle as radians in [-pi, pi) (fixed_kernel.yaw_rad on arrays: the same double operations)."""
+    return np.ldexp(np.asarray(yaw_raw).astype(float), -int(fparams[fk.W_YAW + 1])) * fk.TURN_RAD
+

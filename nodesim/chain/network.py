@@ -277,7 +277,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         duplicate_packets=node.duplicate,
         filter_start_s=node.timeline.filter_start_s,
         accel_sigma_m_s2=node.sig.accel_sigma_m_s2,
-        firmware_overflows=dict(node.kf.overflow_counts) if node.kf is not None else {},
+        firmware_overflows=dict((node.fw or node.kf).overflow_counts) if (node.fw or node.kf) is not None else {},
         gyro_rad_s=node.sig.gyro_rad_s,
         specific_force=node.sig.specific_force,
         ref_yaw_rad=node.ref_yaw,

@@ -36,7 +36,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from nodesim.chain.estimator import forwarded_reference, new_filter, rate_estimate
+from firmware_model import fixed_kernel as fk
+from firmware_model import node_firmware as nf
+from nodesim.chain.estimator import (FirmwareLanes, firmware_config, forwarded_reference, new_filter, rate_estimate,
+                                     timer_us, yaw_rad_of_raw)
 from nodesim.motion.timelines import NodeTimeline
 from nodesim.chain.packets import EstimatePacket, SurveyPacket, select_reference
 from nodesim.chain.sensing import NodeSignals
@@ -88,6 +91,8 @@ class ChainNode:
         self.fallback = None  # faults.Fallback, set by the network
         self.ready_s = 0.0  # when this tick's estimate is ready to send (scalar or (R,))
         self.kf = None
+        self.fixed = net.scenario.filter.implementation == "fixed"  # the integer firmware pipeline
+        self.fw = FirmwareLanes(firmware_config(net.scenario, signals.gyro_white_sigma_rad_s), R) if self.fixed else None
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
@@ -117,12 +122,15 @@ class ChainNode:
             self.ready_s = t
             if t < tl.present_from_s:
                 continue
-            if t < tl.filter_start_s:  # static window: initial bias
+            if self.fixed:
+                if not self._firmware_tick(k, t):
+                    continue  # static window
+            elif t < tl.filter_start_s:  # static window: initial bias
                 self.bias_sum += sig.gyro_rad_s[:, k]
                 self.bias_n += 1
                 self.yaw[:, k] = self.net.encoder.read(t)[0]
                 continue
-            if self.kf is None:
+            elif self.kf is None:
                 bias0 = self.bias_sum / self.bias_n if self.bias_n else 0.0
                 self.kf = new_filter(self.net.scenario, self.yaw.shape[0], self.net.encoder.read(t)[0], bias0)
             elif tl.holding(t):
@@ -146,10 +154,35 @@ class ChainNode:
                     self.net.send_survey(SurveyPacket(stop.station, stop.md_m, self.node_id, k, t,
                                                       np.ones(self.yaw.shape[0], dtype=bool)), self.ready_s)
 
-    def _encoder_update(self, k: int, t: float) -> None:
-        """Request and reply over hop 1 (both on its down link's draws); the encoder answers the requests it
-        received, read at their arrival t_read and brought back to the tick with its rate; the age of the
-        reference is the reply's arrival minus t_read."""
+    def _firmware_tick(self, k: int, t: float) -> bool:
+        """One tick of the fixed-point firmware (:class:`nodesim.chain.estimator.FirmwareLanes`): the same steps
+        as the float path below, on the tick's gyro counts; False in the static window."""
+        fw, sig, tl = self.fw, self.sig, self.timeline
+        gz, n = sig.gyro_z_sum[:, k], sig.n_samples[k]
+        if t < tl.filter_start_s:
+            fw.tick(nf.STATIC, gz, n)
+            self.yaw[:, k] = self.net.encoder.read(t)[0]
+            return False
+        if fw.states[0, nf.S_RUNNING] == 0:
+            fw.tick(nf.START, gz, n, yaw0_raw=fw.config.encoder_yaw_raw(self.net.encoder.read(t)[0]))
+        elif tl.holding(t):
+            self.inbox.clear()  # nothing arrives from a powered-down link; the state is saved
+            fw.tick(nf.HOLD, gz, n)
+        else:
+            if tl.is_top(t):
+                if self.scheduled[k]:
+                    self._encoder_exchange(k, t)
+                else:
+                    fw.tick(nf.RUN, gz, n)
+            else:
+                self._forwarded_firmware(k, t)
+            self.running[k] = True
+        return True
+
+    def _encoder_exchange(self, k: int, t: float):
+        """Request and reply over hop 1; (have (R,), t_read (R,), reference yaw (R,), rate (R,)) as read by the
+        encoder, the reply's arrival set as this tick's ready time (the float path's :meth:`_encoder_update` and
+        the fixed path share it)."""
         self.opportunity = True
         link, surface = self.net.down_links[self.index], self.net.surface
         R = self.yaw.shape[0]
@@ -159,12 +192,50 @@ class ChainNode:
         reply = link.transfer(np.where(request.delivered, request.end_s, t), request.delivered, surface, self.radio)
         have = reply.delivered
         yaw_enc, rate_enc = self.net.encoder.read_many(t_read)
-        ref = yaw_enc - rate_enc * (t_read - t)
-        self.kf.update(ref, self.net.encoder.variance_rad2, mask=have)
-        self._record_reference(k, have, ref, self.net.encoder.variance_rad2)
         self.applied[:, k] = have
         self.age[:, k] = np.where(have, reply.arrival_s - t_read, np.nan)
         self.ready_s = np.where(have, reply.arrival_s, t)
+        if self.fixed:
+            fw, cfg = self.fw, self.fw.config
+            out = fw.tick(nf.RUN, self.sig.gyro_z_sum[:, k], self.sig.n_samples[k], ref=np.where(have, nf.ENCODER_REF, nf.NO_REF),
+                          ref_yaw_raw=cfg.encoder_yaw_raw(yaw_enc), ref_aux_raw=cfg.encoder_rate_raw(rate_enc),
+                          transfer_us=timer_us(t_read - t))
+            self._record_firmware_reference(k, have, out)
+            return
+        ref = yaw_enc - rate_enc * (t_read - t)
+        self.kf.update(ref, self.net.encoder.variance_rad2, mask=have)
+        self._record_reference(k, have, ref, self.net.encoder.variance_rad2)
+
+    def _record_firmware_reference(self, k: int, have, out) -> None:
+        """The reference each applied update used, from the firmware's raws."""
+        fp = self.fw.fparams
+        ref = yaw_rad_of_raw(out[:, nf.OUT_REF], fp)
+        var = np.ldexp(out[:, nf.OUT_R].astype(float), -int(fp[fk.W_YY + 1])) / fk.RAD2_TO_DEG2
+        self._record_reference(k, have, ref, var)
+
+    def _forwarded_firmware(self, k: int, t: float) -> None:
+        arrived = self._arrived(t)
+        self.opportunity = bool(arrived)
+        sel = select_reference(arrived, self.last_seq, t, self.net.max_age_s)
+        self.stale += sel.stale
+        self.duplicate += sel.duplicate
+        fw, sig = self.fw, self.sig
+        if not sel.have.any():
+            fw.tick(nf.RUN, sig.gyro_z_sum[:, k], sig.n_samples[k])
+            return
+        transfer = np.where(sel.have, t - sel.t_read_s, 0.0)
+        out = fw.tick(nf.RUN, sig.gyro_z_sum[:, k], sig.n_samples[k], ref=np.where(sel.have, nf.FORWARDED_REF, nf.NO_REF),
+                      ref_yaw_raw=sel.yaw_raw, ref_aux_raw=sel.var_raw, transfer_us=timer_us(transfer))
+        self._record_firmware_reference(k, sel.have, out)
+        self.last_seq = np.where(sel.have, sel.seq, self.last_seq)
+        self.applied[:, k] = sel.have
+        self.age[:, k] = np.where(sel.have, transfer, np.nan)
+
+    def _encoder_update(self, k: int, t: float) -> None:
+        """Request and reply over hop 1 (both on its down link's draws); the encoder answers the requests it
+        received, read at their arrival t_read and brought back to the tick with its rate; the age of the
+        reference is the reply's arrival minus t_read."""
+        self._encoder_exchange(k, t)
 
     def _arrived(self, t: float) -> list[EstimatePacket]:
         """The inbox's packets as far as they have arrived by ``t``; the rest stays for a later tick."""
@@ -209,6 +280,11 @@ class ChainNode:
         self.ref_var[:, k] = np.where(have, var, np.nan)
 
     def _record(self, k: int) -> None:
+        if self.fixed:
+            self.yaw[:, k] = self.fw.yaw_rad
+            self.var[:, k] = self.fw.yaw_variance_rad2
+            self.bias[:, k] = self.fw.bias_rad_s
+            return
         self.yaw[:, k] = self.kf.yaw_rad
         self.var[:, k] = self.kf.yaw_variance_rad2
         self.bias[:, k] = self.kf.bias_rad_s
@@ -216,14 +292,20 @@ class ChainNode:
     def _transmit(self, k: int, t: float, valid: np.ndarray) -> None:
         """Send the estimate to the node below (or, where this node fell back, to the one after it)."""
         net = self.net
+        if self.fixed:  # the frame's fields: binary angle, P_yy raw, bias-corrected rate
+            raws = dict(yaw_raw=self.fw.yaw_raw, var_raw=self.fw.var_raw)
+            rate = self.fw.rate_rad_s(self.fw.outputs[:, nf.OUT_RATE])
+        else:
+            raws, rate = {}, rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])
         pkt = EstimatePacket(
             sender=self.node_id,
             seq=net.next_seq(),
             t_read_s=float(t),
             yaw_rad=self.yaw[:, k].copy(),  # recorded this tick (the filter's state after the update)
             yaw_var_rad2=self.var[:, k].copy(),
-            rate_rad_s=rate_estimate(self.kf, self.sig.gyro_rad_s[:, k]),
+            rate_rad_s=rate,
             valid=valid,
+            **raws,
         )
         t_ready = self.ready_s + net.processing_s
         below = net.nodes[self.index + 1]

@@ -27,6 +27,8 @@ class EstimatePacket:
     rate_rad_s: np.ndarray  # the sender's bias-corrected rate estimate
     valid: np.ndarray  # bool (R,)
     arrival_s: np.ndarray | None = None  # (R,) when it reached the receiver (None: before any use)
+    yaw_raw: np.ndarray | None = None  # fixed-point firmware: the frame's binary angle and P_yy raw (int64 (R,))
+    var_raw: np.ndarray | None = None
 
     def lost_where(self, lost: np.ndarray) -> "EstimatePacket":
         return replace(self, valid=self.valid & ~lost)
@@ -59,6 +61,8 @@ class Selection:
     seq: np.ndarray  # int, -1 where none
     stale: np.ndarray  # int counts of newer-than-used but too old packets
     duplicate: np.ndarray  # int counts of packets with seq <= the last one used
+    yaw_raw: np.ndarray | None = None  # the chosen frames' raws (fixed-point firmware), 0 where none
+    var_raw: np.ndarray | None = None
 
 
 def select_reference(
@@ -76,6 +80,8 @@ def select_reference(
     seq = np.full(R, -1, dtype=np.int64)
     stale = np.zeros(R, dtype=np.int64)
     dup = np.zeros(R, dtype=np.int64)
+    raws = any(p.yaw_raw is not None for p in inbox)
+    yaw_raw, var_raw = (np.zeros(R, dtype=np.int64), np.zeros(R, dtype=np.int64)) if raws else (None, None)
     for pkt in sorted(inbox, key=lambda p: p.seq, reverse=True):  # newest first
         newer = pkt.valid & (pkt.seq > last_seq)
         dup += pkt.valid & ~newer
@@ -87,5 +93,8 @@ def select_reference(
         var = np.where(take, pkt.yaw_var_rad2, var)
         t_read = np.where(take, pkt.t_read_s, t_read)
         seq = np.where(take, pkt.seq, seq)
+        if raws:
+            yaw_raw = np.where(take, pkt.yaw_raw, yaw_raw)
+            var_raw = np.where(take, pkt.var_raw, var_raw)
         have |= take
-    return Selection(have, yaw, var, t_read, seq, stale, dup)
+    return Selection(have, yaw, var, t_read, seq, stale, dup, yaw_raw, var_raw)

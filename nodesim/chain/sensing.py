@@ -36,6 +36,8 @@ class NodeSignals:
     specific_force: np.ndarray  # (R, K, 3) sensor frame
     gyro_white_sigma_rad_s: float  # per-tick white-noise sigma (used in R of the next node)
     accel_sigma_m_s2: float  # per-tick, per-axis accelerometer noise sigma
+    gyro_z_sum: np.ndarray | None = None  # (R, K) int64 TEMPORARY until the count model lands
+    n_samples: np.ndarray | None = None  # (K,) int64
 
 
 def gyro_model(scenario: Scenario) -> GyroZModel:
@@ -81,6 +83,8 @@ def node_signals(
         specific_force=f,
         gyro_white_sigma_rad_s=gyro.arw_rad_per_sqrt_s / np.sqrt(dt_s),
         accel_sigma_m_s2=accel.noise_m_s2_per_sqrt_hz / np.sqrt(dt_s),
+        gyro_z_sum=np.rint(meas / DEG * 131.0 * 34).astype(np.int64),
+        n_samples=np.full(K, 34, dtype=np.int64),
     )
 
 

@@ -28,7 +28,9 @@ from nodesim import threads
 from nodesim.rng import pcg64
 from nodesim.chain.compiled import events as ev
 from firmware_model import fixed_kernel
+from firmware_model import node_firmware as nf
 from nodesim.chain.compiled import filters, float_kernel
+from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
@@ -237,6 +239,9 @@ def _run_node(net, n: int, out) -> None:
         node.yaw[:, :n_static] = net.encoder.read_many(t[:n_static])[0]
     if n_static >= k_end:
         return
+    if net.scenario.filter.implementation == "fixed":
+        _run_node_firmware(net, n, out, k_end, n_static)
+        return
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
@@ -268,6 +273,38 @@ def _run_node(net, n: int, out) -> None:
     counts = sum(threads.map_chunks(run, R))
     for site, count in fixed_kernel.counts_dict(counts).items():
         node.kf.ctx.counter.record(site, count)
+
+
+def _run_node_firmware(net, n: int, out, k_end: int, n_static: int) -> None:
+    """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`)."""
+    node, sig = net.nodes[n], net.nodes[n].sig
+    _, _, _, src_node, src_tick, enc_t_read, _, _ = out
+    t, R, fw = sig.t_s, net.R, node.fw
+    K = t.size
+    yaw_enc = fw.config.encoder_yaw_raw(net.encoder.read_many(t)[0]) * np.ones((R, 1), np.int64)
+    enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    if n == 0:
+        t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
+        y, rate = net.encoder.read_many(t_read)
+        after = np.arange(K) > n_static  # the start tick reads the encoder at the tick itself
+        yaw_enc = np.where(after, fw.config.encoder_yaw_raw(y), yaw_enc)
+        enc_rate, back_us = fw.config.encoder_rate_raw(rate), timer_us(t_read - t)
+    src = src_node[:, n, :K]
+    offset = np.where(src >= 0, n - src, -1)
+    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    up = (tuple(a.sig.t_s for a in above), tuple(a.yaw_raw for a in above), tuple(a.var_raw for a in above))
+    inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+
+    def run(r0: int, r1: int) -> np.ndarray:
+        counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
+        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_z_sum, sig.n_samples, t, n_static,
+                                  k_end, n == 0, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
+                                  *up, inp, res, node.yaw_raw, node.var_raw, node.yaw, node.var, node.bias,
+                                  node.ref_yaw, node.ref_var, r0, r1)
+        return counts
+
+    fw.counts += sum(threads.map_chunks(run, R))
 
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None):

@@ -18,9 +18,13 @@ more than a float predict: 1000 realizations x 228 ticks, float 8.8 -> 5.4 ms, f
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 from numba import njit
 
 from firmware_model import fixed_kernel as fxk
+from firmware_model import node_firmware as nf
 from nodesim.chain.compiled import float_kernel as flk
 
 
@@ -88,3 +92,45 @@ def sequential_sum(gyro, stop: int):
         for r in range(R):
             out[r] += gyro[r, k]
     return out
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t, n_static, k_end, is_top, applied,
+                      enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, up_yaw_raw, up_var_raw,
+                      inp, out, yaw_raw, var_raw, yaw, var, bias, ref_yaw, ref_var, r_first, r_end) -> None:
+    """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`) of one node over ticks
+    0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``: static window before ``n_static``, the filter
+    started at ``n_static``, then predict and the reference phase 1 chose (the encoder reply read ``enc_back_us``
+    after the tick for the top node; the frame of node n - s read at its tick j for the others).  Records the
+    yaw and P_yy raws (what the node below receives) and the floats the SimPy engine records.  ``inp``/``out``:
+    (R, len(INPUTS)) / (R, len(OUTPUTS)) work rows, one per realization."""
+    fy, fyy, fb = fparams[fxk.W_YAW + 1], fparams[fxk.W_YY + 1], fparams[fxk.W_BIAS + 1]
+    for r in range(r_first, r_end):
+        st, x, o = states[r], inp[r], out[r]
+        nf.init_lane(st)
+        for k in range(k_end):
+            x[nf.IN_GZ], x[nf.IN_N], x[nf.IN_REF] = gyro_z_sum[r, k], n_samples[k], nf.NO_REF
+            if k < n_static:
+                x[nf.IN_PHASE] = nf.STATIC
+            elif k == n_static:
+                x[nf.IN_PHASE], x[nf.IN_YAW0] = nf.START, enc_yaw_raw[r, k]
+            else:
+                x[nf.IN_PHASE] = nf.RUN
+                if is_top:
+                    if applied[r, k]:
+                        x[nf.IN_REF], x[nf.IN_REF_YAW] = nf.ENCODER_REF, enc_yaw_raw[r, k]
+                        x[nf.IN_REF_AUX], x[nf.IN_TRANSFER] = enc_rate_raw[r, k], enc_back_us[r, k]
+                elif src_node[r, k] > 0:
+                    s, j = src_node[r, k] - 1, src_tick[r, k]
+                    x[nf.IN_REF], x[nf.IN_REF_YAW], x[nf.IN_REF_AUX] = nf.FORWARDED_REF, up_yaw_raw[s][r, j], up_var_raw[s][r, j]
+                    x[nf.IN_TRANSFER] = np.int64(np.rint((t[k] - up_t[s][j]) * 1e6))  # estimator.timer_us
+            nf.node_tick(st, params, fparams, counts, x, o)
+            if k < n_static:
+                continue
+            yaw_raw[r, k], var_raw[r, k] = st[fxk.I_YAW], st[fxk.I_PYY]
+            yaw[r, k] = fxk.yaw_rad(st, fparams)
+            var[r, k] = fxk.yaw_variance_rad2(st, fparams)
+            bias[r, k] = fxk.bias_rad_s(st, fparams)
+            if o[nf.OUT_APPLIED] != 0:
+                ref_yaw[r, k] = math.ldexp(float(o[nf.OUT_REF]), -fy) * fxk.TURN_RAD
+                ref_var[r, k] = math.ldexp(float(o[nf.OUT_R]), -fyy) / fxk.RAD2_TO_DEG2
