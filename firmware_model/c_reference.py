@@ -54,27 +54,47 @@ def _cache_dir() -> Path:
 def load():
     """(ffi, lib) of the compiled C reference (compiled once per source version)."""
     key = _digest()
-    if key in _LOADED:
-        return _LOADED[key]
+    if key not in _LOADED:
+        _LOADED[key] = _build(key, C_DIR, _cache_dir() / key)
+    return _LOADED[key]
+
+
+def load_modified(replacements: dict[str, tuple[str, str]], tmpdir: Path):
+    """(ffi, lib) of a copy of the C reference in ``tmpdir`` with ``replacements`` {file name: (old, new)}
+    applied (each ``old`` must occur): the tests' deliberately broken builds."""
+    tmpdir = Path(tmpdir)
+    tmpdir.mkdir(parents=True, exist_ok=True)
+    for p in headers() + sources():
+        text = p.read_text()
+        if p.name in replacements:
+            old, new = replacements[p.name]
+            if old not in text:
+                raise FirmwareError(f"{p.name}: the text to replace does not occur: {old!r}")
+            text = text.replace(old, new)
+        (tmpdir / p.name).write_text(text)
+    key = "mod" + hashlib.sha256(repr(sorted(replacements.items())).encode()).hexdigest()[:12]
+    return _build(key, tmpdir, tmpdir / "build")
+
+
+def _build(key: str, src_dir: Path, out: Path):
     try:
         import cffi
     except ImportError as e:  # pragma: no cover - the test extra installs it
         raise FirmwareError("the C reference needs cffi: pip install 'nodesim[test]'") from e
     name = f"_nodesim_cref_{key}"
-    out = _cache_dir() / key
     out.mkdir(parents=True, exist_ok=True)
     built = sorted(out.glob(f"{name}*.so"))
     if not built:
         ffi = cffi.FFI()
         ffi.cdef(cdefs())
-        includes = "".join(f'#include "{h.name}"\n' for h in headers())
-        ffi.set_source(name, includes, sources=[str(s) for s in sources()], include_dirs=[str(C_DIR)],
-                       extra_compile_args=CFLAGS)
+        hdrs = sorted(src_dir.glob("*.h"))
+        includes = "".join(f'#include "{h.name}"\n' for h in hdrs)
+        ffi.set_source(name, includes, sources=[str(s) for s in sorted(src_dir.glob("*.c"))],
+                       include_dirs=[str(src_dir)], extra_compile_args=CFLAGS)
         ffi.compile(tmpdir=str(out), verbose=False)
         built = sorted(out.glob(f"{name}*.so"))
     spec = importlib.util.spec_from_file_location(name, built[0])
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
-    _LOADED[key] = (module.ffi, module.lib)
-    return _LOADED[key]
+    return module.ffi, module.lib

@@ -18,8 +18,8 @@ loops, and mirrored line by line by the C reference (``firmware_model/c/node_fir
 - reference advance, thesis eq 3.29, psi_ref = psi_prev + omega dt_transfer, in binary-angle arithmetic with the
   transfer time in microseconds of the node's timer::
 
-      k   = round_he(transfer_us * 2^36 / 360e6)                           turns per (deg/s), Q36
-      ref = wrap32(psi_prev + round_he(omega * k, F_rate + 36 - 32))
+      k   = round_he(transfer_us * 2^35 / 360e6)                           turns per (deg/s), Q35
+      ref = wrap32(psi_prev + round_he(omega * k >> (F_rate + 35 - F_yaw)))   (not saturated: exact mod 1 turn)
 
   (transfer_us saturates at 2^24 - 1 us = 16.8 s, counted; older estimates are stale long before);
   with ``chain.rate_compensation = "extrapolated"`` omega += round_he((rate_k - rate_(k-1)) (dt_us - transfer_us)
@@ -67,14 +67,14 @@ P_EXTRA, P_DT_US, P_P0_YY, P_P0_BB, P_SIG_D_F = (_P[n] for n in ("extrapolate", 
 N_PARAMS = len(PARAMS)
 
 # ---- overflow sites: the filter's, then the firmware's --------------------------------------------------------
-FIRMWARE_SITES = ("tick rate", "initial bias", "transfer time", "advance gain", "reference advance", "omega",
-                  "transfer sigma", "R transfer", "R sum")
+FIRMWARE_SITES = ("tick rate", "initial bias", "transfer time", "advance gain", "omega", "transfer sigma",
+                  "R transfer", "R sum")
 SITES = fk.SITES + FIRMWARE_SITES
 _S = {name: i for i, name in enumerate(SITES)}
-X_RATE, X_BIAS0, X_TRANSFER, X_GAIN, X_ADVANCE, X_OMEGA = (_S[n] for n in FIRMWARE_SITES[:6])
-X_SIGMA_D, X_R_TRANSFER, X_R_SUM = (_S[n] for n in FIRMWARE_SITES[6:])
+X_RATE, X_BIAS0, X_TRANSFER, X_GAIN, X_OMEGA = (_S[n] for n in FIRMWARE_SITES[:5])
+X_SIGMA_D, X_R_TRANSFER, X_R_SUM = (_S[n] for n in FIRMWARE_SITES[5:])
 
-ADVANCE_FRAC = 36  # fraction bits of k = transfer / 360 (turns per deg/s)
+ADVANCE_FRAC = 35  # fraction bits of k = transfer / 360 (turns per deg/s): k < 2^31 LSB up to 22.5 s > the timer
 MAX_TRANSFER_US = (1 << 24) - 1
 US_PER_TURN_DEG = 360_000_000  # 360 deg x 1e6 us
 
@@ -155,12 +155,19 @@ def transfer_us_sat(transfer_us, counts):
 
 
 @njit(cache=True)
+def shift_round(x, s):
+    """x / 2^s rounded half to even (s >= 1), no saturation (fixed_kernel._sat's rounding)."""
+    return (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
+
+
+@njit(cache=True)
 def advance(yaw_raw, omega_raw, transfer_us, fparams, counts):
-    """Eq 3.29 in binary-angle arithmetic (module docstring): yaw + omega transfer, wrapped."""
+    """Eq 3.29 in binary-angle arithmetic (module docstring): yaw + omega transfer.  The increment is rounded, not
+    saturated: a binary angle is exact modulo one turn, so any advance wraps correctly."""
     fr, wy, fy = fparams[fk.W_RATE + 1], fparams[fk.W_YAW], fparams[fk.W_YAW + 1]
     k = div_round(transfer_us << ADVANCE_FRAC, US_PER_TURN_DEG)
     k = fk._sat(k, ADVANCE_FRAC, 32, ADVANCE_FRAC, counts, X_GAIN)
-    inc = fk._sat(omega_raw * k, fr + ADVANCE_FRAC, wy, fy, counts, X_ADVANCE)
+    inc = shift_round(omega_raw * k, fr + ADVANCE_FRAC - fy)  # fr + 35 - fy = 19 for every word length
     return fk._wrap(yaw_raw + inc, wy)
 
 

@@ -69,10 +69,18 @@ def forwarded_reference(yaw_rad, variance_rad2, rate_rad_s, transfer_s, rate_sig
     return ref, chain_reference_variance(variance_rad2, transfer_s, rate_sigma_rad_s, offset_sigma_rad)
 
 
-def firmware_config(scenario: Scenario, sigma_rate_rad_s: float) -> FirmwareConfig:
-    """The fixed-point firmware build of ``scenario`` (``sigma_rate_rad_s``: the per-tick gyro white-noise sigma
-    of the transfer term of R)."""
+def tick_gyro_sigma_rad_s(scenario: Scenario) -> float:
+    """The per-tick gyro white-noise sigma ARW / sqrt(dt) (the transfer term of R; the chain's sensing computes
+    the same double for ``NodeSignals.gyro_white_sigma_rad_s``)."""
+    dt_s = 1.0 / scenario.chain.firmware_rate_hz
+    return float(scenario.sensor.gyro_arw_deg_per_sqrt_s * DEG / np.sqrt(dt_s))
+
+
+def firmware_config(scenario: Scenario) -> FirmwareConfig:
+    """The fixed-point firmware build of ``scenario``: what a run simulates and ``nodesim firmware export-config``
+    writes as a C header."""
     c = scenario.chain
+    sigma_rate_rad_s = tick_gyro_sigma_rad_s(scenario)
     return FirmwareConfig(
         filter=filter_config(scenario),
         formats=FixedFormats().with_word_length(scenario.filter.fixed_word_bits),

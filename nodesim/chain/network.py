@@ -277,13 +277,20 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         duplicate_packets=node.duplicate,
         filter_start_s=node.timeline.filter_start_s,
         accel_sigma_m_s2=node.sig.accel_sigma_m_s2,
-        firmware_overflows=dict((node.fw or node.kf).overflow_counts) if (node.fw or node.kf) is not None else {},
+        firmware_overflows=_overflows(node),
         gyro_rad_s=node.sig.gyro_rad_s,
         specific_force=node.sig.specific_force,
         ref_yaw_rad=node.ref_yaw,
         ref_var_rad2=node.ref_var,
         present_from_s=node.timeline.present_from_s,
     )
+
+
+def _overflows(node) -> dict:
+    """The node's fixed-point saturations per site: its firmware's (fixed) or its filter's (empty for float)."""
+    if node.fw is not None:
+        return node.fw.overflow_counts
+    return dict(node.kf.overflow_counts) if node.kf is not None else {}
 
 
 def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None = None) -> ChainRun:

@@ -92,7 +92,7 @@ class ChainNode:
         self.ready_s = 0.0  # when this tick's estimate is ready to send (scalar or (R,))
         self.kf = None
         self.fixed = net.scenario.filter.implementation == "fixed"  # the integer firmware pipeline
-        self.fw = FirmwareLanes(firmware_config(net.scenario, signals.gyro_white_sigma_rad_s), R) if self.fixed else None
+        self.fw = FirmwareLanes(firmware_config(net.scenario), R) if self.fixed else None
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
