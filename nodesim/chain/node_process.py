@@ -93,6 +93,9 @@ class ChainNode:
         self.kf = None
         self.fixed = net.scenario.filter.implementation == "fixed"  # the integer firmware pipeline
         self.fw = FirmwareLanes(firmware_config(net.scenario), R) if self.fixed else None
+        # the fixed firmware's binary angle and P_yy raws per tick (the survey and the frames use them)
+        self.yaw_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
+        self.var_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
@@ -281,6 +284,7 @@ class ChainNode:
 
     def _record(self, k: int) -> None:
         if self.fixed:
+            self.yaw_raw[:, k], self.var_raw[:, k] = self.fw.yaw_raw, self.fw.var_raw
             self.yaw[:, k] = self.fw.yaw_rad
             self.var[:, k] = self.fw.yaw_variance_rad2
             self.bias[:, k] = self.fw.bias_rad_s
