@@ -15,6 +15,7 @@ OPTION_OF = {
     "calibrate": "--method",
     "sweep": "--executor",
     "replay": "--firmware",
+    "firmware": "export-config",
     "report": "RUN_OR_CAMPAIGN_DIR",
     "validate": "--json",
     "bench": "--json",

@@ -3,26 +3,15 @@
 #include "fixedpoint.h"
 #include "yaw_filter.h"
 
-/* filter parameter layout (firmware_model/fixed_kernel.py): (word, frac) of each format at 2 i */
-#define FW_YAW 0
-#define FW_RATE 2
-#define FW_BIAS 4
-#define FW_YY 6
-#define I_YAW 0
-#define I_BIAS 1
-#define I_PYY 2
-#define I_PYB 3
-#define I_PBB 4
 /* overflow sites after the filter's (firmware_model.node_firmware.FIRMWARE_SITES) */
-#define N_FILTER_SITES 25
-#define X_RATE (N_FILTER_SITES + 0)
-#define X_BIAS0 (N_FILTER_SITES + 1)
-#define X_TRANSFER (N_FILTER_SITES + 2)
-#define X_GAIN (N_FILTER_SITES + 3)
-#define X_OMEGA (N_FILTER_SITES + 4)
-#define X_SIGMA_D (N_FILTER_SITES + 5)
-#define X_R_TRANSFER (N_FILTER_SITES + 6)
-#define X_R_SUM (N_FILTER_SITES + 7)
+#define X_RATE (NF_N_FILTER_SITES + 0)
+#define X_BIAS0 (NF_N_FILTER_SITES + 1)
+#define X_TRANSFER (NF_N_FILTER_SITES + 2)
+#define X_GAIN (NF_N_FILTER_SITES + 3)
+#define X_OMEGA (NF_N_FILTER_SITES + 4)
+#define X_SIGMA_D (NF_N_FILTER_SITES + 5)
+#define X_R_TRANSFER (NF_N_FILTER_SITES + 6)
+#define X_R_SUM (NF_N_FILTER_SITES + 7)
 #define ADVANCE_FRAC 35
 #define MAX_TRANSFER_US (((int64_t)1 << 24) - 1)
 #define US_PER_TURN_DEG 360000000LL
@@ -43,7 +32,7 @@ void nf_init_lane(int64_t *state)
 
 static void read_gyro(int64_t *st, int64_t gz, int64_t n, const int64_t *p, const int64_t *fp, int64_t *counts)
 {
-    const int64_t fr = fp[FW_RATE + 1], wr = fp[FW_RATE];
+    const int64_t fr = fp[NF_W_RATE + 1], wr = fp[NF_W_RATE];
     st[NF_S_LAST_RATE] = st[NF_S_RATE];
     st[NF_S_HAVE_LAST] = st[NF_S_HAVE_LAST] >= 0 ? 1 : 0;
     st[NF_S_RATE] = fx_sat(counts_to_rate(gz, n, fr, p[NF_P_SENS]), fr, wr, fr, counts, X_RATE);
@@ -51,15 +40,15 @@ static void read_gyro(int64_t *st, int64_t gz, int64_t n, const int64_t *p, cons
 
 static void start_filter(int64_t *st, int64_t yaw0, const int64_t *p, const int64_t *fp, int64_t *counts)
 {
-    const int64_t fb = fp[FW_BIAS + 1], wb = fp[FW_BIAS];
+    const int64_t fb = fp[NF_W_BIAS + 1], wb = fp[NF_W_BIAS];
     int64_t bias = 0;
     if (st[NF_S_BIAS_N] > 0)
         bias = fx_sat(counts_to_rate(st[NF_S_BIAS_SUM], st[NF_S_BIAS_N], fb, p[NF_P_SENS]), fb, wb, fb, counts, X_BIAS0);
-    st[I_YAW] = fx_wrap(yaw0, fp[FW_YAW]);
-    st[I_BIAS] = bias;
-    st[I_PYY] = p[NF_P_P0_YY];
-    st[I_PYB] = 0;
-    st[I_PBB] = p[NF_P_P0_BB];
+    st[NF_I_YAW] = fx_wrap(yaw0, fp[NF_W_YAW]);
+    st[NF_I_BIAS] = bias;
+    st[NF_I_PYY] = p[NF_P_P0_YY];
+    st[NF_I_PYB] = 0;
+    st[NF_I_PBB] = p[NF_P_P0_BB];
     st[NF_S_RUNNING] = 1;
 }
 
@@ -77,7 +66,7 @@ static int64_t shift_round(int64_t x, int64_t s)
 
 static int64_t advance(int64_t yaw, int64_t omega, int64_t us, const int64_t *fp, int64_t *counts)
 {
-    const int64_t fr = fp[FW_RATE + 1], wy = fp[FW_YAW], fy = fp[FW_YAW + 1];
+    const int64_t fr = fp[NF_W_RATE + 1], wy = fp[NF_W_YAW], fy = fp[NF_W_YAW + 1];
     int64_t k = fx_div_round((int64_t)((uint64_t)us << ADVANCE_FRAC), US_PER_TURN_DEG);
     int64_t inc;
     k = fx_sat(k, ADVANCE_FRAC, 32, ADVANCE_FRAC, counts, X_GAIN);
@@ -87,8 +76,8 @@ static int64_t advance(int64_t yaw, int64_t omega, int64_t us, const int64_t *fp
 
 static int64_t omega_of(const int64_t *st, const int64_t *p, const int64_t *fp, int64_t *counts, int64_t us)
 {
-    const int64_t fr = fp[FW_RATE + 1], wr = fp[FW_RATE], fb = fp[FW_BIAS + 1];
-    int64_t w = fx_sub(st[NF_S_RATE], fr, st[I_BIAS], fb, wr, fr, counts, X_OMEGA);
+    const int64_t fr = fp[NF_W_RATE + 1], wr = fp[NF_W_RATE], fb = fp[NF_W_BIAS + 1];
+    int64_t w = fx_sub(st[NF_S_RATE], fr, st[NF_I_BIAS], fb, wr, fr, counts, X_OMEGA);
     if (p[NF_P_EXTRA] != 0 && st[NF_S_HAVE_LAST] != 0) {
         const int64_t dt_us = p[NF_P_DT_US];
         const int64_t slope = fx_div_round((st[NF_S_RATE] - st[NF_S_LAST_RATE]) * (dt_us - us), 2 * dt_us);
@@ -99,7 +88,7 @@ static int64_t omega_of(const int64_t *st, const int64_t *p, const int64_t *fp, 
 
 static int64_t reference_variance(int64_t var_prev, int64_t us, const int64_t *p, const int64_t *fp, int64_t *counts)
 {
-    const int64_t fyy = fp[FW_YY + 1], wyy = fp[FW_YY], fd = p[NF_P_SIG_D_F];
+    const int64_t fyy = fp[NF_W_YY + 1], wyy = fp[NF_W_YY], fd = p[NF_P_SIG_D_F];
     const int64_t d = fx_sat(us * p[NF_P_SIG], p[NF_P_SIG_F], 32, fd, counts, X_SIGMA_D);
     const int64_t d2 = fx_sat(d * d, 2 * fd, wyy, fyy, counts, X_R_TRANSFER);
     const int64_t r = fx_add(var_prev, fyy, d2, fyy, wyy, fyy, counts, X_R_SUM);
@@ -146,8 +135,8 @@ void node_firmware_tick(int64_t *st, const int64_t *p, const int64_t *fp, int64_
         }
     }
     if (st[NF_S_RUNNING] != 0)
-        out[NF_OUT_RATE] = fx_sub(st[NF_S_RATE], fp[FW_RATE + 1], st[I_BIAS], fp[FW_BIAS + 1], fp[FW_RATE],
-                                  fp[FW_RATE + 1], counts, X_OMEGA);
+        out[NF_OUT_RATE] = fx_sub(st[NF_S_RATE], fp[NF_W_RATE + 1], st[NF_I_BIAS], fp[NF_W_BIAS + 1], fp[NF_W_RATE],
+                                  fp[NF_W_RATE + 1], counts, X_OMEGA);
 }
 
 void node_firmware_run(int64_t *st, const int64_t *p, const int64_t *fp, int64_t *counts, const int64_t *inputs,

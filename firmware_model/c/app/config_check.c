@@ -1,7 +1,7 @@
 /* A minimal firmware image built against an exported node_config.h (nodesim firmware export-config): it runs the
  * static window, the filter start and a few predict-only ticks with the header's parameters and prints the state.
- * Build: gcc -std=c99 -Wall -Werror -fwrapv -I<dir of node_config.h> -Ifirmware_model/c \
- *        firmware_model/c/app/config_check.c firmware_model/c/*.c */
+ * Build: gcc -std=c99 -Wall -Werror -fwrapv -I(dir of node_config.h) -Ifirmware_model/c
+ *        firmware_model/c/app/config_check.c and every firmware_model/c source file */
 #include <stdio.h>
 #include "node_config.h"
 #include "node_firmware.h"
