@@ -161,7 +161,7 @@ class ChainNode:
         """One tick of the fixed-point firmware (:class:`nodesim.chain.estimator.FirmwareLanes`): the same steps
         as the float path below, on the tick's gyro counts; False in the static window."""
         fw, sig, tl = self.fw, self.sig, self.timeline
-        gz, n = sig.gyro_z_sum[:, k], sig.n_samples[k]
+        gz, n = sig.gyro_counts[:, k, 2], sig.samples[k]
         if t < tl.filter_start_s:
             fw.tick(nf.STATIC, gz, n)
             self.yaw[:, k] = self.net.encoder.read(t)[0]
@@ -200,7 +200,7 @@ class ChainNode:
         self.ready_s = np.where(have, reply.arrival_s, t)
         if self.fixed:
             fw, cfg = self.fw, self.fw.config
-            out = fw.tick(nf.RUN, self.sig.gyro_z_sum[:, k], self.sig.n_samples[k], ref=np.where(have, nf.ENCODER_REF, nf.NO_REF),
+            out = fw.tick(nf.RUN, self.sig.gyro_counts[:, k, 2], self.sig.samples[k], ref=np.where(have, nf.ENCODER_REF, nf.NO_REF),
                           ref_yaw_raw=cfg.encoder_yaw_raw(yaw_enc), ref_aux_raw=cfg.encoder_rate_raw(rate_enc),
                           transfer_us=timer_us(t_read - t))
             self._record_firmware_reference(k, have, out)
@@ -224,10 +224,10 @@ class ChainNode:
         self.duplicate += sel.duplicate
         fw, sig = self.fw, self.sig
         if not sel.have.any():
-            fw.tick(nf.RUN, sig.gyro_z_sum[:, k], sig.n_samples[k])
+            fw.tick(nf.RUN, sig.gyro_counts[:, k, 2], sig.samples[k])
             return
         transfer = np.where(sel.have, t - sel.t_read_s, 0.0)
-        out = fw.tick(nf.RUN, sig.gyro_z_sum[:, k], sig.n_samples[k], ref=np.where(sel.have, nf.FORWARDED_REF, nf.NO_REF),
+        out = fw.tick(nf.RUN, sig.gyro_counts[:, k, 2], sig.samples[k], ref=np.where(sel.have, nf.FORWARDED_REF, nf.NO_REF),
                       ref_yaw_raw=sel.yaw_raw, ref_aux_raw=sel.var_raw, transfer_us=timer_us(transfer))
         self._record_firmware_reference(k, sel.have, out)
         self.last_seq = np.where(sel.have, sel.seq, self.last_seq)

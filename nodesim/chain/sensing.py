@@ -36,8 +36,12 @@ class NodeSignals:
     specific_force: np.ndarray  # (R, K, 3) sensor frame
     gyro_white_sigma_rad_s: float  # per-tick white-noise sigma (used in R of the next node)
     accel_sigma_m_s2: float  # per-tick, per-axis accelerometer noise sigma
-    gyro_z_sum: np.ndarray | None = None  # (R, K) int64 TEMPORARY until the count model lands
-    n_samples: np.ndarray | None = None  # (K,) int64
+    # TEMPORARY stand-ins until the sensor-rate count model lands (issue 19, item 1): per-tick integer sums of
+    # the int16 samples and their number, at the MPU6500's 250 deg/s (131 LSB per deg/s) and 2 g (16384 LSB
+    # per g) ranges, as if 34 samples were read per tick
+    gyro_counts: np.ndarray | None = None  # (R, K, 3) int64
+    accel_counts: np.ndarray | None = None  # (R, K, 3) int64
+    samples: np.ndarray | None = None  # (K,) int64
 
 
 def gyro_model(scenario: Scenario) -> GyroZModel:
@@ -83,9 +87,17 @@ def node_signals(
         specific_force=f,
         gyro_white_sigma_rad_s=gyro.arw_rad_per_sqrt_s / np.sqrt(dt_s),
         accel_sigma_m_s2=accel.noise_m_s2_per_sqrt_hz / np.sqrt(dt_s),
-        gyro_z_sum=np.rint(meas / DEG * 131.0 * 34).astype(np.int64),
-        n_samples=np.full(K, 34, dtype=np.int64),
+        gyro_counts=_stand_in_gyro_counts(meas),
+        accel_counts=np.rint(f / G0_M_S2 * 16384.0 * 34).astype(np.int64),
+        samples=np.full(K, 34, dtype=np.int64),
     )
+
+
+def _stand_in_gyro_counts(gyro_z_rad_s: np.ndarray) -> np.ndarray:
+    """(R, K, 3) int64: 34 samples of 131 LSB per deg/s on z, nothing on x and y (TEMPORARY, see NodeSignals)."""
+    counts = np.zeros(gyro_z_rad_s.shape + (3,), dtype=np.int64)
+    counts[..., 2] = np.rint(gyro_z_rad_s / DEG * 131.0 * 34)
+    return counts
 
 
 @dataclass(frozen=True)

@@ -298,7 +298,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int) -> None:
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
-        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_z_sum, sig.n_samples, t, n_static,
+        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, n_static,
                                   k_end, n == 0, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
                                   *up, inp, res, node.yaw_raw, node.var_raw, node.yaw, node.var, node.bias,
                                   node.ref_yaw, node.ref_var, r0, r1)
