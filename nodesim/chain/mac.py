@@ -6,7 +6,8 @@ that of the node ticks; what differs between realizations is arrays):
 * queue: a radio holds at most ``mac.queue_length`` frames (the one on air included); a frame finding it full
   is dropped (tail drop);
 * start = max(t_ready, the radio's free time: end of its previous frame and duty-cycle off time);
-* attempt a at time t: the data frame (airtime T_d = frame_bits / bit_rate) arrives unless
+* attempt a at time t: the data frame (airtime T_d = mac.data_frame_bits / bit_rate, the estimate frame's
+  bytes plus the preamble) arrives unless
   u_data < PER_data(t), the hop is in an outage, the receiver is dead, a Gilbert-Elliott burst loses it, or
   the receiver's radio is busy with its own frame (half duplex: its last ARQ exchange overlaps [t, t + T_d));
   the ACK (T_a = ack_bits / bit_rate, after the turnaround) arrives unless u_ack < PER_ack(t) (or an outage);

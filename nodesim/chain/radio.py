@@ -141,7 +141,7 @@ def _channels(scenario: Scenario, specs: list[tuple[str, str, np.ndarray, np.nda
         path_loss = np.stack([specs[i][2] for i in idx])  # (hops, G)
         loss = path_loss[:, :, None] + np.stack([specs[i][3] for i in idx])[:, None, :]
         rx = b.received_power_dbm(loss)  # (hops, G, R)
-        per_data = np.asarray(per.packet_error_rate(rx, m.frame_bits, radio), dtype=float)
+        per_data = np.asarray(per.packet_error_rate(rx, m.data_frame_bits, radio), dtype=float)
         per_ack = np.asarray(per.packet_error_rate(rx, m.ack_bits, radio), dtype=float)
         margin = np.asarray(b.margin_db(loss), dtype=float)
         for j, i in enumerate(idx):
@@ -149,7 +149,7 @@ def _channels(scenario: Scenario, specs: list[tuple[str, str, np.ndarray, np.nda
                 name=specs[i][0], kind=kind, step_s=r.profile_step_s,
                 per_data_table=per_data[j], per_ack_table=per_ack[j], margin_db=margin[j],
                 mean_path_loss_db=float(path_loss[j, 0]), mean_margin_db=float(b.margin_db(path_loss[j, 0])),
-                airtime_s=m.frame_bits / r.bit_rate_bps, ack_airtime_s=m.ack_bits / r.bit_rate_bps,
+                airtime_s=m.data_frame_bits / r.bit_rate_bps, ack_airtime_s=m.ack_bits / r.bit_rate_bps,
             )
     return out
 

@@ -13,6 +13,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from firmware_model.frames import ESTIMATE_BYTES
 from nodesim.scenario.section_base import _Section
 
 Kind = Literal["soil", "pipe", "cable"]
@@ -94,10 +95,17 @@ class RadioSection(_Section):
 
 
 class MacSection(_Section):
-    """Stop-and-wait ARQ MAC (``enabled = false``: one attempt per frame, no ACK, no queue)."""
+    """Stop-and-wait ARQ MAC (``enabled = false``: one attempt per frame, no ACK, no queue).
+
+    A data frame on air is ``preamble_bits + 8 * ESTIMATE_BYTES`` bits (:attr:`data_frame_bits`, the estimate
+    frame of :mod:`firmware_model.frames`, 27 bytes incl. its CRC); it sets the airtime and the packet error rate.
+    ``preamble_bits`` default 56: the CC1101 packet format (datasheet SWRS061 sec. 15.2), 4-byte preamble (the
+    NUM_PREAMBLE reset value) + 16-bit sync word + 1 length byte, the radio's CRC off (the frame has its own).
+    """
 
     enabled: bool = False
-    frame_bits: int = Field(160, ge=8, le=100_000, description="estimate frame incl. preamble and CRC")
+    preamble_bits: int = Field(56, ge=0, le=100_000, description="preamble + sync word + PHY header bits before "
+                               "the frame (CC1101: 32 + 16 + 8)")
     ack_bits: int = Field(64, ge=8, le=100_000)
     max_retries: int = Field(3, ge=0, le=20)
     ack_timeout_s: float = Field(0.01, gt=0.0, le=10.0)
@@ -108,6 +116,22 @@ class MacSection(_Section):
     tx_current_a: float = Field(0.0168, ge=0.0, le=2.0, description="CC1101 datasheet TX at 0 dBm, 868 MHz")
     rx_current_a: float = Field(0.0164, ge=0.0, le=2.0, description="CC1101 datasheet RX, 38.4 kbit/s")
     supply_v: float = Field(3.0, gt=0.0, le=48.0)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_frame_bits(cls, data):
+        if isinstance(data, dict) and "frame_bits" in data:
+            raise ValueError(
+                f"mac.frame_bits is gone: the data frame length is the estimate frame's ({ESTIMATE_BYTES} bytes, "
+                f"firmware_model/frames.py) plus mac.preamble_bits (default 56): remove mac.frame_bits and set "
+                f"mac.preamble_bits (frame_bits = {data['frame_bits']!r} would be preamble_bits = frame_bits - "
+                f"{8 * ESTIMATE_BYTES})")
+        return data
+
+    @property
+    def data_frame_bits(self) -> int:
+        """Bits on air per data frame: preamble_bits + 8 * ESTIMATE_BYTES."""
+        return self.preamble_bits + 8 * ESTIMATE_BYTES
 
 
 class NodeFailure(_Section):

@@ -74,7 +74,20 @@ def test_hop_channels_follow_the_channel_models():
     assert hops[2].mean_path_loss_db < 1.0  # 3 m of air-filled pipe at 5 GHz
     assert skips[1] is not None  # node 1 -> node 3 over soil + pipe: the summed losses
     assert math.isclose(skips[1].mean_path_loss_db, hops[1].mean_path_loss_db + hops[2].mean_path_loss_db)
-    assert math.isclose(hops[1].airtime_s, 160 / 38400)
+    # the estimate frame (27 bytes, firmware_model.frames) + the CC1101 preamble, sync word and length byte (56 bits)
+    assert math.isclose(hops[1].airtime_s, (56 + 8 * 27) / 38400)
+    short = s.with_overrides(**{"mac.preamble_bits": 0})
+    h0, _ = hop_channels(short, RunStreams(0, 3), 1)
+    assert math.isclose(h0[1].airtime_s, 8 * 27 / 38400)
+    assert (h0[1].per_data_table < hops[1].per_data_table).all()  # fewer bits on air, fewer errors
+
+
+def test_frame_bits_is_gone_with_a_message_naming_preamble_bits():
+    from nodesim.errors import ScenarioError
+
+    with pytest.raises(ScenarioError, match=r"mac.frame_bits is gone.*27 bytes.*preamble_bits"):
+        Scenario().with_overrides(**{"mac.frame_bits": 160})
+    assert Scenario().mac.data_frame_bits == 56 + 8 * 27
 
 
 def test_soil_water_raises_per_and_shadowing_spreads_margins():

@@ -1,0 +1,232 @@
+"""Radio frames as bytes: the layouts as data, encode/decode over lanes, CRC-16/CCITT-FALSE (docs/firmware.md "Frames").
+
+Every frame is little-endian and packed: a type byte, the payload fields in the order of the layout, then the
+CRC-16/CCITT-FALSE of every byte before it (poly 0x1021, init 0xFFFF, no reflection, xorout 0; check value
+0x29B1 for ``b"123456789"``), itself little-endian.  The payloads are those of thesis digest 2.6 ("Payload":
+{node_id, seq, t_read, psi, P_psipsi, psi_dot, b_z}; survey packets add {station, I, A, sigma_I, sigma_A,
+cluster id}) plus the encoder exchange of the top node (digest 2.6 "Encoder": the module sends position and
+angular velocity).  The C twin is ``firmware_model/c/frames.c`` (``nf_frame_*``, ``nf_crc16``).
+
+Layouts (bytes; the type byte is offset 0, the CRC the last two bytes):
+
+============  ====  =========================================================================  =====
+frame         type  fields after the type byte (name: width/sign, format)                      bytes
+============  ====  =========================================================================  =====
+estimate      1     node u16, seq u16, t_read_us u32, yaw i32 (Q0.32 binary angle),             27
+                    P_yy i32 (Q8.24 deg^2), rate i32 (Q16.16 deg/s), bias i32 (Q16.16 deg/s)
+survey        2     station u16, node u16, cluster u16, t_us u32, I i32, A i32 (Q0.32 binary    25
+                    angles), sigma_I u16, sigma_A u16 (unsigned, LSB 2**-20 turn)
+enc_request   3     node u16, seq u16                                                            7
+enc_reply     4     node u16, seq u16, t_read_us u32, yaw i32 (Q0.32), rate i32 (Q16.16 deg/s)  19
+============  ====  =========================================================================  =====
+
+sigma_I / sigma_A (our choice; the thesis gives no format): an unsigned 16-bit angle with LSB 2**-20 turn
+(360 / 2**20 = 3.43e-4 deg), i.e. the Q0.32 binary angle shifted right by 12, full scale 22.5 deg.
+
+Values that do not fit their field (our policy, one per field, ``POLICY`` in the layout):
+
+- ``WRAP``: the field is modular by nature and keeps the value modulo ``2**bits`` (binary angles are exact mod
+  one turn, the sequence number and the free-running microsecond timer wrap on the MCU: ``t_us`` wraps every
+  2**32 us = 71.6 min and the receiver unwraps it against its own clock).  Decoding gives the value in the
+  field's range (two's complement for a signed field);
+- ``SATURATE``: clamped to the field's range and counted (the sigmas: anything above 22.5 deg is "unknown");
+- ``REJECT``: the frame is not encoded; the encoder returns ``-(1 + field index)`` and :func:`encode` raises
+  :class:`~firmware_model.errors.FirmwareError` (identifiers, and fixed-point words whose format is already
+  32 bits: a value outside means the caller's format does not match the field, a bug, not data).
+
+The njit kernels (:func:`crc16`, :func:`encode_frame`, :func:`decode_frame`, :func:`encode_lanes`,
+:func:`decode_lanes`) take the layout array (``LAYOUTS[kind]``, int64 rows ``(offset, width, signed,
+policy)``) so a compiled caller can use them directly; :func:`encode` / :func:`decode` are the checked Python
+entry points over lanes ``values (R, n_fields)`` int64 <-> ``frames (R, n_bytes)`` uint8.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from firmware_model.errors import FirmwareError
+
+WRAP, SATURATE, REJECT = 0, 1, 2
+ESTIMATE, SURVEY, ENC_REQUEST, ENC_REPLY = 1, 2, 3, 4
+KIND_NAMES = {ESTIMATE: "estimate", SURVEY: "survey", ENC_REQUEST: "enc_request", ENC_REPLY: "enc_reply"}
+CRC_BYTES = 2
+TYPE_BYTES = 1
+CRC16_CHECK = 0x29B1  # CRC-16/CCITT-FALSE of b"123456789"
+SIGMA_SHIFT = 12  # sigma field = Q0.32 binary angle >> 12 (LSB 2**-20 turn)
+SIGMA_LSB_DEG = 360.0 / 2**20
+
+# (name, width in bytes, signed, policy) after the type byte, in wire order
+FIELDS: dict[int, tuple[tuple[str, int, bool, int], ...]] = {
+    ESTIMATE: (("node", 2, False, REJECT), ("seq", 2, False, WRAP), ("t_read_us", 4, False, WRAP),
+               ("yaw", 4, True, WRAP), ("P_yy", 4, True, REJECT), ("rate", 4, True, REJECT),
+               ("bias", 4, True, REJECT)),
+    SURVEY: (("station", 2, False, REJECT), ("node", 2, False, REJECT), ("cluster", 2, False, REJECT),
+             ("t_us", 4, False, WRAP), ("I", 4, True, WRAP), ("A", 4, True, WRAP),
+             ("sigma_I", 2, False, SATURATE), ("sigma_A", 2, False, SATURATE)),
+    ENC_REQUEST: (("node", 2, False, REJECT), ("seq", 2, False, WRAP)),
+    ENC_REPLY: (("node", 2, False, REJECT), ("seq", 2, False, WRAP), ("t_read_us", 4, False, WRAP),
+                ("yaw", 4, True, WRAP), ("rate", 4, True, REJECT)),
+}
+
+
+def _layout(fields) -> np.ndarray:
+    rows, off = [], TYPE_BYTES
+    for _, width, signed, policy in fields:
+        rows.append((off, width, int(signed), policy))
+        off += width
+    return np.array(rows, dtype=np.int64)
+
+
+LAYOUTS: dict[int, np.ndarray] = {k: _layout(f) for k, f in FIELDS.items()}
+LENGTHS: dict[int, int] = {k: TYPE_BYTES + sum(f[1] for f in v) + CRC_BYTES for k, v in FIELDS.items()}
+ESTIMATE_BYTES = LENGTHS[ESTIMATE]  # 27
+SURVEY_BYTES = LENGTHS[SURVEY]  # 25
+ENC_REQUEST_BYTES = LENGTHS[ENC_REQUEST]  # 7
+ENC_REPLY_BYTES = LENGTHS[ENC_REPLY]  # 19
+
+
+def field_index(kind: int, name: str) -> int:
+    """Column of field ``name`` in the values of a ``kind`` frame."""
+    for i, f in enumerate(FIELDS[kind]):
+        if f[0] == name:
+            return i
+    raise FirmwareError(f"{KIND_NAMES.get(kind, kind)} frame has no field {name!r}; "
+                        f"fields: {[f[0] for f in FIELDS[kind]]}")
+
+
+def _crc_table() -> np.ndarray:
+    table = np.zeros(256, dtype=np.int64)
+    for b in range(256):
+        c = b << 8
+        for _ in range(8):
+            c = ((c << 1) ^ 0x1021) if c & 0x8000 else (c << 1)
+            c &= 0xFFFF
+        table[b] = c
+    return table
+
+
+CRC_TABLE = _crc_table()
+
+
+@njit(cache=True)
+def crc16(buf, n):
+    """CRC-16/CCITT-FALSE of ``buf[:n]`` (uint8), table-driven: ``c = (c << 8) ^ T[(c >> 8) ^ byte]`` from
+    ``c = 0xFFFF``, ``T[b]`` the MSB-first division of ``b << 8`` by x^16 + x^12 + x^5 + 1 (0x1021)."""
+    c = 0xFFFF
+    for i in range(n):
+        c = ((c << 8) & 0xFFFF) ^ CRC_TABLE[((c >> 8) ^ np.int64(buf[i])) & 0xFF]
+    return c
+
+
+@njit(cache=True)
+def encode_frame(values, layout, kind, out):
+    """Write one frame of type ``kind`` into ``out`` (uint8, the frame length) from ``values`` (int64, one per
+    layout row).  Returns the number of saturated fields (>= 0), or ``-(1 + i)`` if field ``i`` has policy
+    REJECT and its value does not fit (``out`` is then left partly written and must not be sent)."""
+    n_sat = 0
+    out[0] = np.uint8(kind)
+    for i in range(layout.shape[0]):
+        off, width, signed, policy = layout[i, 0], layout[i, 1], layout[i, 2], layout[i, 3]
+        bits = 8 * width
+        lo = -(np.int64(1) << (bits - 1)) if signed else np.int64(0)
+        hi = (np.int64(1) << (bits - 1)) - 1 if signed else (np.int64(1) << bits) - 1
+        v = values[i]
+        if v < lo or v > hi:
+            if policy == REJECT:
+                return -(1 + i)
+            if policy == SATURATE:
+                v = lo if v < lo else hi
+                n_sat += 1
+            # WRAP: the low bits below are the value modulo 2**bits
+        u = v & ((np.int64(1) << bits) - 1)
+        for j in range(width):
+            out[off + j] = np.uint8((u >> (8 * j)) & 0xFF)
+    n = out.shape[0] - 2
+    c = crc16(out, n)
+    out[n] = np.uint8(c & 0xFF)
+    out[n + 1] = np.uint8(c >> 8)
+    return n_sat
+
+
+@njit(cache=True)
+def decode_frame(frame, layout, kind, values):
+    """Read the fields of one frame into ``values`` (int64); True iff the CRC matches and the type byte is
+    ``kind``.  The fields are decoded whatever the validity (sign-extended for a signed field)."""
+    for i in range(layout.shape[0]):
+        off, width, signed = layout[i, 0], layout[i, 1], layout[i, 2]
+        u = np.int64(0)
+        for j in range(width):
+            u |= np.int64(frame[off + j]) << (8 * j)
+        bits = 8 * width
+        if signed and u >= (np.int64(1) << (bits - 1)):
+            u -= np.int64(1) << bits
+        values[i] = u
+    n = frame.shape[0] - 2
+    got = np.int64(frame[n]) | (np.int64(frame[n + 1]) << 8)
+    return got == crc16(frame, n) and np.int64(frame[0]) == kind
+
+
+@njit(cache=True)
+def encode_lanes(values, layout, kind, n_bytes):
+    """(frames (R, n_bytes) uint8, status (R,) int64) of :func:`encode_frame` lane by lane."""
+    R = values.shape[0]
+    frames = np.zeros((R, n_bytes), dtype=np.uint8)
+    status = np.zeros(R, dtype=np.int64)
+    for r in range(R):
+        status[r] = encode_frame(values[r], layout, kind, frames[r])
+    return frames, status
+
+
+@njit(cache=True)
+def decode_lanes(frames, layout, kind):
+    """(values (R, n_fields) int64, valid (R,) bool) of :func:`decode_frame` lane by lane."""
+    R = frames.shape[0]
+    values = np.zeros((R, layout.shape[0]), dtype=np.int64)
+    valid = np.zeros(R, dtype=np.bool_)
+    for r in range(R):
+        valid[r] = decode_frame(frames[r], layout, kind, values[r])
+    return values, valid
+
+
+def _kind(kind: int) -> int:
+    if kind not in LAYOUTS:
+        raise FirmwareError(f"unknown frame type {kind!r}; allowed: {KIND_NAMES}")
+    return int(kind)
+
+
+def encode(kind: int, values) -> tuple[np.ndarray, np.ndarray]:
+    """Frames ``(R, LENGTHS[kind])`` uint8 and the saturated-field count per lane ``(R,)`` from ``values``
+    ``(R, n_fields)`` integers (one row per realization, the columns in the layout's order).  Raises
+    :class:`FirmwareError` on a wrong shape or a REJECT field out of range (naming lane, field and range)."""
+    kind = _kind(kind)
+    v = np.asarray(values)
+    nf = len(FIELDS[kind])
+    if v.ndim != 2 or v.shape[1] != nf:
+        raise FirmwareError(f"{KIND_NAMES[kind]} frame values must be (R, {nf}) "
+                            f"({[f[0] for f in FIELDS[kind]]}), got shape {v.shape}")
+    if v.dtype.kind not in "iu" and not (v.dtype == bool):
+        raise FirmwareError(f"{KIND_NAMES[kind]} frame values must be integers, got dtype {v.dtype}")
+    if v.dtype.kind == "u" and v.size and v.max() > np.iinfo(np.int64).max:
+        raise FirmwareError("frame values exceed int64")
+    frames, status = encode_lanes(np.ascontiguousarray(v, dtype=np.int64), LAYOUTS[kind], kind, LENGTHS[kind])
+    bad = np.flatnonzero(status < 0)
+    if bad.size:
+        r = int(bad[0])
+        i = int(-status[r] - 1)
+        name, width, signed, _ = FIELDS[kind][i]
+        lo, hi = (-(1 << (8 * width - 1)), (1 << (8 * width - 1)) - 1) if signed else (0, (1 << (8 * width)) - 1)
+        raise FirmwareError(f"{KIND_NAMES[kind]} frame, lane {r}: field {name} = {int(v[r, i])} does not fit "
+                            f"its {8 * width}-bit {'signed' if signed else 'unsigned'} field [{lo}, {hi}]")
+    return frames, status
+
+
+def decode(kind: int, frames) -> tuple[np.ndarray, np.ndarray]:
+    """(values (R, n_fields) int64, valid (R,) bool) of frames ``(R, LENGTHS[kind])`` uint8; valid = the CRC
+    matches and the type byte is ``kind``."""
+    kind = _kind(kind)
+    f = np.asarray(frames)
+    if f.ndim != 2 or f.shape[1] != LENGTHS[kind] or f.dtype != np.uint8:
+        raise FirmwareError(f"{KIND_NAMES[kind]} frames must be (R, {LENGTHS[kind]}) uint8, "
+                            f"got shape {f.shape} dtype {f.dtype}")
+    return decode_lanes(np.ascontiguousarray(f), LAYOUTS[kind], kind)
