@@ -224,3 +224,57 @@ def test_a_broken_c_rounding_is_caught(tmp_path, file, old, new):
     ffi, lib = c_reference.load_modified({file: (old, new)}, tmp_path)
     with pytest.raises(AssertionError):
         sweep_streams(lib, ffi, 400, seed=19)
+
+
+# ---- eqs 1.1-1.3 (moved from the deleted tests/firmware_model/test_preprocessing.py), float and fixed ---------
+
+def rotating_tube(inc_rad, azi_rad, yaw):
+    """Sensor-frame specific force of a tube at (I, A) rotated by yaw (no mounting offset)."""
+    g = 9.81
+    f = np.array([g * math.sin(inc_rad) * math.cos(azi_rad), g * math.sin(inc_rad) * math.sin(azi_rad), g * math.cos(inc_rad)])
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * f[0] + s * f[1], -s * f[0] + c * f[1], np.full_like(c, f[2])], -1)  # tube frame
+
+
+def fixed_of(f, yaw_rad, mode=survey.MODE_CORDIC, n=cordic.DEFAULT_ITERATIONS):
+    """The firmware's (I, A) [rad] of one tick: 34-sample count sums at 16384 LSB/g, the yaw as a binary angle."""
+    counts = np.rint(f / 9.81 * 16384 * 34).astype(np.int64)
+    yaw32 = int(round(yaw_rad / TWO_PI * 2**32)) % 2**32
+    i, a = survey.resolve(counts[0], counts[1], counts[2], yaw32, mode, n)
+    return float(survey.inclination_rad(i)), float(survey.azimuth_rad(a))
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(0.5, 60.0), st.floats(0.0, 359.0), st.floats(-720.0, 720.0))
+def test_resolve_eqs_1_1_to_1_3(inc_deg, azi_deg, yaw_deg):
+    """I independent of yaw, A = tau' + psi (dA/dpsi = 1), A recovers the true azimuth (digest 1.2); the fixed
+    survey (CORDIC and float32) gives the same to its resolution."""
+    from firmware_model.survey_resolution import resolve, resolve_survey
+
+    DEG = math.pi / 180
+    yaw = np.array([yaw_deg * DEG])
+    f = rotating_tube(inc_deg * DEG, azi_deg * DEG, yaw)
+    s = resolve(f, yaw)
+    assert s.inclination_rad[0] == pytest.approx(inc_deg * DEG, abs=1e-12)
+    err = np.angle(np.exp(1j * (s.azimuth_rad[0] - azi_deg * DEG)))
+    assert abs(err) < 1e-9
+    assert np.remainder(s.toolface_rad[0] + yaw[0] - s.azimuth_rad[0] + 1.0, 2 * math.pi) == pytest.approx(1.0)
+    s2 = resolve(f, yaw + 0.01)  # a yaw error becomes the same azimuth error
+    assert np.angle(np.exp(1j * (s2.azimuth_rad[0] - s.azimuth_rad[0]))) == pytest.approx(0.01, abs=1e-12)
+    i, a = resolve_survey(f, yaw)
+    assert i[0] == s.inclination_rad[0] and a[0] == s.azimuth_rad[0]
+    # count quantisation: 1 LSB of the horizontal sum over |f_xy| >= sin(0.5 deg) 34 16384 LSB -> < 2e-4 rad
+    for mode in (survey.MODE_CORDIC, survey.MODE_FPU):
+        fi, fa = fixed_of(f[0], yaw[0], mode)
+        assert fi == pytest.approx(inc_deg * DEG, abs=2e-6)
+        assert abs(np.angle(np.exp(1j * (fa - azi_deg * DEG)))) < 2e-4
+
+
+def test_northward_tilt_gives_azimuth_zero():
+    """Digest 9 item 2: a bottom displaced northward must give A = 0 (z up-hole, toolface to high side)."""
+    from firmware_model.survey_resolution import resolve
+
+    f = rotating_tube(3.0 * math.pi / 180, 0.0, np.array([0.0]))
+    assert resolve(f, np.array([0.0])).azimuth_rad[0] == pytest.approx(0.0, abs=1e-12)
+    _, a = fixed_of(f[0], 0.0)
+    assert abs(np.angle(np.exp(1j * a))) < 1e-6
