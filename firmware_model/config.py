@@ -17,7 +17,7 @@ from firmware_model import cordic
 from firmware_model import fixed_kernel as fk
 from firmware_model import fixedpoint as fp
 from firmware_model import node_firmware as nf
-from firmware_model import survey
+from firmware_model import node_survey as survey
 from firmware_model.errors import FirmwareError
 from firmware_model.fixed_filter import FixedFormats, FixedYawFilter, RAD_TO_DEG, const
 from firmware_model.fixedpoint import Overflow, QFormat
@@ -40,7 +40,7 @@ class FirmwareConfig:
     offset_sigma_rad: float = 0.0  # node-to-node yaw offset sigma (R)
     encoder_counts_per_rev: int = 1024
     extrapolate_rate: bool = False
-    survey_math: str = "cordic"  # "cordic" (integer CORDIC) or "fpu" (single-precision float): firmware_model.survey
+    survey_math: str = "cordic"  # "cordic" (integer CORDIC) or "fpu" (single-precision float): firmware_model.node_survey
     cordic_iterations: int = cordic.DEFAULT_ITERATIONS
     survey_points: int = 32  # the survey moving average's window N
 
@@ -60,7 +60,7 @@ class FirmwareConfig:
 
     @property
     def survey_mode(self) -> int:
-        """firmware_model.survey.MODE_CORDIC or MODE_FPU."""
+        """firmware_model.node_survey.MODE_CORDIC or MODE_FPU."""
         return survey.mode_of(self.survey_math)
 
     @property

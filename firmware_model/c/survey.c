@@ -1,4 +1,4 @@
-/* Survey resolution and moving average (firmware_model/survey.py, bit for bit). */
+/* Survey resolution and moving average (firmware_model/node_survey.py, bit for bit). */
 #include <math.h>
 #include "cordic.h"
 #include "fixedpoint.h"

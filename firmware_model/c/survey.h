@@ -1,4 +1,4 @@
-/* Survey resolution (thesis eqs 1.1-1.3) and the N-point moving average: the C of firmware_model/survey.py
+/* Survey resolution (thesis eqs 1.1-1.3) and the N-point moving average: the C of firmware_model/node_survey.py
  * (docstring there), bit for bit. Modes: SURVEY_MODE_CORDIC (integer CORDIC, the default) or SURVEY_MODE_FPU
  * (single-precision float: atan2f, sqrtf, rintf). Words: I in [0, 2^31], A in [0, 2^32) (2^32 = one turn).
  * Moving-average state: int64 words count, head, sum_I, then the I ring and the A ring (N words each). */

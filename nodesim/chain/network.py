@@ -24,8 +24,8 @@ from functools import partial
 import numpy as np
 import simpy
 
-from firmware_model import survey
-from firmware_model.survey import fixed_surveys
+from firmware_model import node_survey as survey
+from firmware_model.node_survey import fixed_surveys
 from nodesim import threads
 from nodesim.chain import faults
 from nodesim.chain.compiled.surveys import averaged_surveys
@@ -250,7 +250,7 @@ class Network:
 
 def _node_run(node: ChainNode, points: int) -> NodeRun:
     """Resolve the survey (thesis eqs 1.1-1.3) and apply the firmware moving average from the node's first tick:
-    the fixed firmware (``node.yaw_raw`` set) as the MCU does it, :func:`firmware_model.survey.fixed_surveys` on
+    the fixed firmware (``node.yaw_raw`` set) as the MCU does it, :func:`firmware_model.node_survey.fixed_surveys` on
     the accelerometer count sums and the yaw word (``[firmware] survey_math``, ``cordic_iterations``); the float
     filter by :func:`nodesim.chain.compiled.surveys.averaged_surveys`."""
     R, K = node.yaw.shape

@@ -1,4 +1,4 @@
-"""The integer CORDIC (firmware_model.cordic) and the survey + moving average (firmware_model.survey): against
+"""The integer CORDIC (firmware_model.cordic) and the survey + moving average (firmware_model.node_survey): against
 math.atan2 / hypot with an error bound in the iteration count, exact tables, and the C reference
 (firmware_model/c/cordic.c, survey.c) word for word on >= 10,000 hypothesis-generated cases; a deliberately
 broken C rounding is caught."""
@@ -13,7 +13,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_model import c_reference, cordic, survey
+from firmware_model import c_reference, cordic
+from firmware_model import node_survey as survey
 from firmware_model.errors import FirmwareError
 
 TWO_PI = 2.0 * math.pi

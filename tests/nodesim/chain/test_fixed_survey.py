@@ -1,4 +1,4 @@
-"""The chain's fixed firmware resolves its surveys as the MCU does (firmware_model.survey.fixed_surveys: integer
+"""The chain's fixed firmware resolves its surveys as the MCU does (firmware_model.node_survey.fixed_surveys: integer
 CORDIC or float32, integer moving average), and they agree with the float survey of the same run (issue 19 goal:
 RMS azimuth difference < 0.005 deg at 2 deg inclination on the lab profile)."""
 
