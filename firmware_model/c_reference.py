@@ -20,6 +20,7 @@ from firmware_model.errors import FirmwareError
 
 C_DIR = Path(__file__).with_name("c")
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Werror", "-fwrapv"]
+LDLIBS = ["-lm"]  # survey.c's float32 ("fpu") mode: atan2f, sqrtf, rintf
 _CDEF = re.compile(r"/\* cdef-begin \*/(.*?)/\* cdef-end \*/", re.S)
 _LOADED: dict[str, tuple] = {}
 
@@ -90,7 +91,8 @@ def _build(key: str, src_dir: Path, out: Path):
         hdrs = sorted(src_dir.glob("*.h"))
         includes = "".join(f'#include "{h.name}"\n' for h in hdrs)
         ffi.set_source(name, includes, sources=[str(s) for s in sorted(src_dir.glob("*.c"))],
-                       include_dirs=[str(src_dir)], extra_compile_args=CFLAGS)
+                       include_dirs=[str(src_dir)], extra_compile_args=CFLAGS,
+                       libraries=[f[2:] for f in LDLIBS])
         ffi.compile(tmpdir=str(out), verbose=False)
         built = sorted(out.glob(f"{name}*.so"))
     spec = importlib.util.spec_from_file_location(name, built[0])

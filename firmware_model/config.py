@@ -13,9 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from firmware_model import cordic
 from firmware_model import fixed_kernel as fk
 from firmware_model import fixedpoint as fp
 from firmware_model import node_firmware as nf
+from firmware_model import node_survey as survey
 from firmware_model.errors import FirmwareError
 from firmware_model.fixed_filter import FixedFormats, FixedYawFilter, RAD_TO_DEG, const
 from firmware_model.fixedpoint import Overflow, QFormat
@@ -38,6 +40,9 @@ class FirmwareConfig:
     offset_sigma_rad: float = 0.0  # node-to-node yaw offset sigma (R)
     encoder_counts_per_rev: int = 1024
     extrapolate_rate: bool = False
+    survey_math: str = "cordic"  # "cordic" (integer CORDIC) or "fpu" (single-precision float): firmware_model.node_survey
+    cordic_iterations: int = cordic.DEFAULT_ITERATIONS
+    survey_points: int = 32  # the survey moving average's window N
 
     def __post_init__(self) -> None:
         if self.gyro_full_scale_dps not in GYRO_SENS_X10:
@@ -48,6 +53,15 @@ class FirmwareConfig:
                 raise FirmwareError(f"{name} = {v}: allowed finite values >= 0")
         if not (isinstance(self.encoder_counts_per_rev, int) and self.encoder_counts_per_rev >= 1):
             raise FirmwareError(f"encoder_counts_per_rev = {self.encoder_counts_per_rev!r}: allowed integers >= 1")
+        survey.mode_of(self.survey_math)
+        cordic.check_iterations(self.cordic_iterations)
+        if isinstance(self.survey_points, bool) or not (isinstance(self.survey_points, int) and self.survey_points >= 1):
+            raise FirmwareError(f"survey_points = {self.survey_points!r}: allowed integers >= 1")
+
+    @property
+    def survey_mode(self) -> int:
+        """firmware_model.node_survey.MODE_CORDIC or MODE_FPU."""
+        return survey.mode_of(self.survey_math)
 
     @property
     def dt_us(self) -> int:
@@ -103,6 +117,9 @@ class FirmwareConfig:
             f"#define NF_FIRMWARE_RATE_HZ_X1000 {int(round(1e3 / self.filter.dt_s))}",
             f"#define NF_GYRO_FULL_SCALE_DPS {self.gyro_full_scale_dps}",
             f"#define NF_ENCODER_COUNTS_PER_REV {self.encoder_counts_per_rev}",
+            f"#define NF_SURVEY_MODE {self.survey_mode}  /* {self.survey_math}: SURVEY_MODE_CORDIC 0, SURVEY_MODE_FPU 1 */",
+            f"#define NF_CORDIC_ITERATIONS {self.cordic_iterations}",
+            f"#define NF_SURVEY_POINTS {self.survey_points}",
             f"#define NF_N_FILTER_PARAMS {fparams.size}", f"#define NF_N_PARAMS {params.size}",
             f"#define NF_N_SITES {len(nf.SITES)}", f"#define NF_STATE_SIZE {nf.STATE_SIZE}", "",
             "/* formats: word bits, fraction bits */",

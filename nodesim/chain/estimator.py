@@ -89,6 +89,9 @@ def firmware_config(scenario: Scenario) -> FirmwareConfig:
         offset_sigma_rad=c.offset_sigma_deg * DEG,
         encoder_counts_per_rev=scenario.sensor.encoder_counts_per_rev,
         extrapolate_rate=c.rate_compensation == "extrapolated",
+        survey_math=scenario.firmware.survey_math,
+        cordic_iterations=scenario.firmware.cordic_iterations,
+        survey_points=scenario.filter.moving_average_points,
     )
 
 

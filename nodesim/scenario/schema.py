@@ -177,6 +177,15 @@ class FilterSection(_Section):
     moving_average_points: int = Field(32, ge=1, le=10_000)
 
 
+class FirmwareSection(_Section):
+    """Node firmware build settings (docs/firmware.md; firmware_model.config.FirmwareConfig): how the MCU does
+    the survey's trigonometry (issue 19: integer CORDIC, or single-precision float on an MCU with an FPU)."""
+
+    survey_math: Literal["cordic", "fpu"] = Field(
+        "cordic", description="survey trigonometry: integer CORDIC (firmware_model.cordic) or float32 ('fpu')")
+    cordic_iterations: int = Field(24, ge=8, le=30, description="CORDIC iterations (angle error ~ 2^-(n-1) rad)")
+
+
 class ScheduleSection(_Section):
     """Reference-update schedule (thesis 4.2.2 update modes); ``arbitrary`` takes ``windows``, a list of
     ``[start_s, stop_s, rate_hz]`` (non-negative, ordered, not overlapping, rate > 0)."""
@@ -246,6 +255,7 @@ class Scenario(_Section):
     motion: MotionSection = MotionSection()
     sensor: SensorSection = SensorSection()
     filter: FilterSection = FilterSection()
+    firmware: FirmwareSection = FirmwareSection()
     schedule: ScheduleSection = ScheduleSection()
     metrics: MetricsSection = MetricsSection()
     radio: RadioSection = RadioSection()

@@ -23,7 +23,8 @@ def test_exported_header_compiles_with_the_c_reference(scenario, tmp_path):
     assert main(["firmware", "export-config", str(scenario), "-o", str(header)]) == 0
     exe = tmp_path / "image"
     cmd = ["gcc", *c_reference.CFLAGS, f"-I{tmp_path}", f"-I{c_reference.C_DIR}",
-           str(c_reference.C_DIR / "app" / "config_check.c"), *map(str, c_reference.sources()), "-o", str(exe)]
+           str(c_reference.C_DIR / "app" / "config_check.c"), *map(str, c_reference.sources()), "-o", str(exe),
+           *c_reference.LDLIBS]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
     assert len(out) == 3 and int(out[1]) != 0  # the static window's 1 deg/s became the bias
