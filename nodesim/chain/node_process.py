@@ -165,6 +165,7 @@ class ChainNode:
         if t < tl.filter_start_s:
             fw.tick(nf.STATIC, gz, n)
             self.yaw[:, k] = self.net.encoder.read(t)[0]
+            self.yaw_raw[:, k] = fw.config.encoder_yaw_raw(self.yaw[:, k])  # the static window reports the encoder
             return False
         if fw.states[0, nf.S_RUNNING] == 0:
             fw.tick(nf.START, gz, n, yaw0_raw=fw.config.encoder_yaw_raw(self.net.encoder.read(t)[0]))

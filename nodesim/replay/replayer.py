@@ -46,6 +46,8 @@ from nodesim.scenario.schema import Scenario
 from nodesim.scenario.schedules import UpdateSchedule
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.sensors.imu import average_per_tick, sum_per_tick
+from nodesim.units import G0_M_S2
+from firmware_model import node_survey
 
 SCHEDULE_HELP = "recorded | config | continuous | none | windowed:UPDATE_S:TIMEOUT_S | single:RATE_HZ"
 
@@ -66,6 +68,7 @@ class FirmwareSetup:
     noise_source: str = "config"
     formats: FixedFormats | None = None  # fixed filter: its Q formats (filter.fixed_word_bits)
     firmware: FirmwareConfig | None = None  # fixed implementation: the firmware build the chain runs
+    accel_lsb_per_g: float = 16384.0  # the accelerometer's sensitivity (the MPU6500's 2 g range, as the chain reads it)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
@@ -269,6 +272,20 @@ def gyro_tick_counts(node: NodeLog, ticks: np.ndarray, cfg: FirmwareConfig, hold
     return sums[:, 0], n
 
 
+def accel_tick_counts(node: NodeLog, ticks: np.ndarray, lsb_per_g: float, hold_gaps: bool) -> np.ndarray:
+    """(K, 3) accelerometer count sums per tick: the log's ``accel_sum_*`` where it records them, else the samples'
+    int16 counts (``rint(f / g0 x LSB per g)``, clipped) summed per tick."""
+    names = ("accel_sum_x", "accel_sum_y", "accel_sum_z")
+    if all(node.has(c) for c in names):
+        sums = np.stack([_per_tick(node, ticks, c) for c in names], -1)
+        if not np.isfinite(sums).all():
+            k = int(np.flatnonzero(~np.isfinite(sums).all(-1))[0])
+            raise NodesimError(f"node {node.node_id}: tick {k} (t = {ticks[k]:.6g} s) has no accel_sum_* value")
+        return sums.astype(np.int64)
+    counts = np.clip(np.rint(node.accel_m_s2 / G0_M_S2 * lsb_per_g), -32768, 32767).astype(np.int64)
+    return sum_per_tick(node.t_s, counts, ticks, hold_empty=hold_gaps)[0]
+
+
 def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float,
                          is_top: bool, hold_gaps: bool = False) -> NodeReplay:
     """The fixed-point replay: the node firmware itself (:func:`firmware_model.node_firmware.node_tick`, as the
@@ -278,8 +295,7 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
     cfg = setup.firmware
     ticks = tick_times(node, setup.rate_hz)
     gz, n = gyro_tick_counts(node, ticks, cfg, hold_gaps)
-    both = np.concatenate([node.gyro_rad_s[:, 2:3], node.accel_m_s2], axis=1)
-    force = average_per_tick(node.t_s, both, ticks, hold_empty=hold_gaps)[:, 1:]
+    accel = accel_tick_counts(node, ticks, setup.accel_lsb_per_g, hold_gaps)
     edges = np.searchsorted(node.t_s, np.concatenate([[2 * ticks[0] - ticks[1]], ticks]), side="right")
     held = int(np.count_nonzero(np.diff(edges) == 0))
     enc = encoder_at(node, ticks)
@@ -294,10 +310,12 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
     hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(K, dtype=bool)
     no_enc = node.encoder_rad is None
     fw = FirmwareLanes(cfg, 1)
+    yaw_word = np.zeros(K, np.int64)
     for k in range(K):
-        if static[k]:
+        if static[k]:  # the static window reports the encoder's yaw, as the chain's firmware does
             fw.tick(nf.STATIC, gz[k], n[k])
             yaw[k] = 0.0 if no_enc else enc[k]
+            yaw_word[k] = 0 if no_enc else cfg.encoder_yaw_raw(enc[k])
             continue
         if fw.states[0, nf.S_RUNNING] == 0:
             fw.tick(nf.START, gz[k], n[k], yaw0_raw=0 if no_enc else cfg.encoder_yaw_raw(enc[k]))
@@ -309,12 +327,12 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
             applied[k] = mask[k]
             running[k] = True
         yaw[k], pvar[k], bias[k] = fw.yaw_rad[0], fw.yaw_variance_rad2[0], fw.bias_rad_s[0]
-    inc, azi = np.full(K, np.nan), np.full(K, np.nan)
-    have = np.isfinite(yaw)
-    if have.any():
-        first = int(np.argmax(have))
-        averaged_surveys(np.ascontiguousarray(force[None, first:]), yaw[None, first:], setup.moving_average_points,
-                         inc[None, first:], azi[None, first:])
+        yaw_word[k] = fw.yaw_raw[0]
+    # the survey as the chain's fixed firmware resolves it (nodesim.chain.network._node_run)
+    inc_raw, azi_raw = np.zeros((1, K), np.int64), np.zeros((1, K), np.int64)
+    node_survey.fixed_surveys(np.ascontiguousarray(accel[None]), yaw_word[None], setup.moving_average_points,
+                              cfg.survey_mode, cfg.cordic_iterations, inc_raw, azi_raw, cfg.formats.yaw.frac_bits)
+    inc, azi = node_survey.inclination_rad(inc_raw)[0], node_survey.azimuth_rad(azi_raw)[0]
     return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held, fw.overflow_counts)
 
 

@@ -125,7 +125,8 @@ def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t,
                     x[nf.IN_REF], x[nf.IN_REF_YAW], x[nf.IN_REF_AUX] = nf.FORWARDED_REF, up_yaw_raw[s][r, j], up_var_raw[s][r, j]
                     x[nf.IN_TRANSFER] = np.int64(np.rint((t[k] - up_t[s][j]) * 1e6))  # estimator.timer_us
             nf.node_tick(st, params, fparams, counts, x, o)
-            if k < n_static:
+            if k < n_static:  # the static window reports the encoder's yaw (its survey's azimuth reference)
+                yaw_raw[r, k] = enc_yaw_raw[r, k]
                 continue
             yaw_raw[r, k], var_raw[r, k] = st[fxk.I_YAW], st[fxk.I_PYY]
             yaw[r, k] = fxk.yaw_rad(st, fparams)
