@@ -47,7 +47,10 @@ def estimate_frame(node: int, seq: int, t_read_us, yaw_raw, var_raw, rate_raw, b
     v = np.empty((R, len(_EST)), dtype=np.int64)
     v[:, 0], v[:, 1], v[:, 2] = node, seq, t_read_us
     v[:, 3], v[:, 4], v[:, 5], v[:, 6] = yaw_raw, var_raw, rate_raw, bias_raw
-    return fr.encode(fr.ESTIMATE, v)[0]
+    frames, status = fr.encode_lanes(v, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE, fr.ESTIMATE_BYTES)
+    if (status < 0).any():
+        fr.encode(fr.ESTIMATE, v)  # raises the FirmwareError naming the lane and field
+    return frames
 
 
 @dataclass(frozen=True)
@@ -103,7 +106,7 @@ def select_reference(
     for pkt in sorted(inbox, key=lambda p: p.seq, reverse=True):  # newest first
         valid = pkt.valid
         if raws:  # the receiver decodes the bytes: a frame failing its CRC is dropped and counted
-            words, ok = fr.decode(fr.ESTIMATE, pkt.frame)
+            words, ok = fr.decode_lanes(pkt.frame, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE)
             rejected += valid & ~ok
             valid = valid & ok
         newer = valid & (pkt.seq > last_seq)
