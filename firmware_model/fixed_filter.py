@@ -27,15 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_model import fixed_fast
+from firmware_model import fixed_kernel as fk
 from firmware_model import fixedpoint as fp
 from firmware_model.errors import FirmwareError
 from firmware_model.fixedpoint import FixedContext, Fx, Overflow, QFormat, Rounding
 from firmware_model.yaw_filter import YawFilter, YawFilterConfig, batch_arg, check_finite, check_realizations
 
-RAD_TO_DEG = 180.0 / math.pi
-FUSE_MAX_REALIZATIONS = 2048  # the fused fast path's batch limit (see FixedYawFilter._fusable)
-TURN_RAD = 2.0 * math.pi
+RAD_TO_DEG = fk.RAD_TO_DEG
+TURN_RAD = fk.TURN_RAD
 
 
 @dataclass(frozen=True)
@@ -156,11 +155,40 @@ class FixedYawFilter(YawFilter):
 
     @property
     def _fusable(self) -> bool:
-        """The fused fast path (:mod:`firmware_model.fixed_fast`) covers the default policy only, and pays off
-        where per-call overhead dominates (measured: 2.5x faster at R = 1, 1.5x at R = 64, even at R = 2048,
-        slower at R = 10,000, where the primitives' in-place scratch arrays win)."""
-        return (self.realizations <= FUSE_MAX_REALIZATIONS and self.ctx.rounding is Rounding.HALF_EVEN
-                and self.ctx.overflow is Overflow.SATURATE)
+        """The default policy (round half even, saturate) runs the firmware's own compiled steps
+        (:func:`firmware_model.fixed_kernel.predict_raw_lanes` / ``update_raw_lanes``: the code the chain's
+        node firmware runs, bit for bit the primitive-by-primitive path below, tests/firmware_model/
+        test_fixed_kernel.py); other policies (rounding and overflow studies) run the primitives."""
+        return self.ctx.rounding is Rounding.HALF_EVEN and self.ctx.overflow is Overflow.SATURATE
+
+    def _kernel_params(self):
+        """The compiled kernels' parameter vector, or None where the primitives must run (another policy, a
+        state or input outside the build's formats)."""
+        if not self._fusable:
+            return None
+        f = self.formats
+        if any(getattr(self, n).fmt != getattr(f, n) for n in self.STATE):
+            return None
+        if getattr(self, "_kp", None) is None:
+            self._kp = fk.kernel_params(self)
+        return self._kp
+
+    def _run_kernel(self, kernel, *raws) -> np.ndarray:
+        """(R, 5) states after ``kernel`` on every lane; its overflows recorded per site."""
+        states = fk.lane_states(self)
+        counts = np.zeros(len(fk.SITES), dtype=np.int64)
+        R = self.realizations
+        args = [np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.int64), (R,))) for x in raws]
+        kernel(states, *args, self._kp, counts)
+        for i in np.flatnonzero(counts):
+            self.ctx.counter.record(fk.SITES[i], int(counts[i]))
+        return states
+
+    def _set_states(self, states: np.ndarray, mask=None) -> None:
+        for i, name in enumerate(self.STATE):
+            old = getattr(self, name)
+            raw = states[:, i] if mask is None else np.where(mask, states[:, i], old.raw)
+            setattr(self, name, Fx(np.ascontiguousarray(raw), old.fmt))
 
     def predict(self, measured_rate_rad_s) -> None:
         rate = batch_arg("gyro rate", check_finite("gyro rate", measured_rate_rad_s), self.realizations)
@@ -208,13 +236,10 @@ class FixedYawFilter(YawFilter):
 
     # ---- the firmware, on raw values -----------------------------------------------------------------
     def predict_raw(self, rate: Fx) -> None:
-        """Time update with the gyro rate already in fixed point (deg/s): the fused fast path when no
-        intermediate overflows, else primitive by primitive (same bits either way)."""
-        fast = self._fused(fixed_fast.predict, rate)
-        if fast is not None:
-            f = self.formats
-            self.yaw, self.p_yy, self.p_yb, self.p_bb = (
-                Fx(raw, fmt) for raw, fmt in zip(fast, (self.yaw.fmt, f.p_yy, f.p_yb, f.p_bb)))
+        """Time update with the gyro rate already in fixed point (deg/s): the compiled firmware step where it
+        applies (:meth:`_kernel_params`), else primitive by primitive (the same bits and counts)."""
+        if self._kernel_params() is not None and rate.fmt == self.formats.rate:
+            self._set_states(self._run_kernel(fk.predict_raw_lanes, rate.raw))
             return
         c, f = self.ctx, self.formats
         d = c.sub(rate, self.bias, f.rate, "rate - bias")
@@ -228,17 +253,12 @@ class FixedYawFilter(YawFilter):
         self.p_yy, self.p_yb, self.p_bb = self._floor_variance(p_yy), p_yb, self._floor_variance(p_bb)
 
     def update_raw(self, ref: Fx, r: Fx, mask: np.ndarray) -> None:
-        """Measurement update with the reference as a binary angle and its variance in P_yy's format (fused
-        fast path when no intermediate overflows, else primitive by primitive)."""
-        fast = self._fused(fixed_fast.update, ref, r)
-        if fast is not None:
-            yaw, bias, p_yy, p_yb, p_bb = fast
-            if mask.all():  # every realization got the reference (always so at R = 1 in the chain)
-                pick = lambda new, old: Fx(new, old.fmt)  # noqa: E731
-            else:
-                pick = lambda new, old: Fx(np.where(mask, new, old.raw), old.fmt)  # noqa: E731
-            self.yaw, self.bias, self.p_yb = pick(yaw, self.yaw), pick(bias, self.bias), pick(p_yb, self.p_yb)
-            self.p_yy, self.p_bb = pick(np.maximum(p_yy, 1), self.p_yy), pick(np.maximum(p_bb, 1), self.p_bb)
+        """Measurement update with the reference as a binary angle and its variance in P_yy's format (the
+        compiled firmware step where it applies, else primitive by primitive).  Every lane is computed (and
+        counts its overflows), the ``mask`` lanes keep the result."""
+        f = self.formats
+        if self._kernel_params() is not None and ref.fmt == f.yaw and r.fmt == f.p_yy:
+            self._set_states(self._run_kernel(fk.update_raw_lanes, ref.raw, r.raw), None if mask.all() else mask)
             return
         c, f = self.ctx, self.formats
         z = fp.sub(self.yaw, ref, f.yaw, f.rounding, Overflow.WRAP)  # (int32_t)(yaw - ref): wrapped innovation
@@ -257,16 +277,6 @@ class FixedYawFilter(YawFilter):
         self.p_yy = pick(self._floor_variance(p_yy), self.p_yy)
         self.p_yb = pick(p_yb, self.p_yb)
         self.p_bb = pick(self._floor_variance(p_bb), self.p_bb)
-
-    def _fused(self, kernel, *args):
-        """The kernel's raws, or None where the exact path must run (another policy, an overflow, a case
-        the kernel does not fuse)."""
-        if not self._fusable:
-            return None
-        try:
-            return kernel(self, *args, scalar=self.realizations == 1)
-        except fixed_fast.Unsupported:
-            return None
 
     @staticmethod
     def _floor_variance(p: Fx) -> Fx:

@@ -38,10 +38,11 @@ import math
 import numpy as np
 from numba import njit
 
-from firmware_model import fixed_fast
-from firmware_model.fixed_filter import RAD_TO_DEG, TURN_RAD, FixedYawFilter
 from firmware_model.fixedpoint import MAX_SHIFT, Overflow, Rounding
 from firmware_model.errors import FirmwareError
+
+RAD_TO_DEG = 180.0 / math.pi
+TURN_RAD = 2.0 * math.pi  # one turn of the binary angle
 
 SITES: tuple[str, ...] = (
     # predict
@@ -64,9 +65,9 @@ STATE_FIELDS = ("yaw", "bias", "p_yy", "p_yb", "p_bb")  # columns of lane_states
 I_YAW, I_BIAS, I_PYY, I_PYB, I_PBB = range(5)
 
 # params layout: (word_bits, frac_bits) of every FixedFormats field, then (raw, frac_bits, word_bits) of every
-# build-time constant, in fixed_fast.CONSTANTS order
+# build-time constant, in CONSTANTS order
 FORMAT_FIELDS = ("yaw", "rate", "bias", "p_yy", "p_yb", "p_bb", "inv_s", "gain_yaw", "gain_bias", "innovation_deg")
-CONSTANTS = fixed_fast.CONSTANTS  # k_turns, c_2dt, c_dt2, q_yy, c_dt, c_f, c_f2, q_bb, one, c_360
+CONSTANTS = ("k_turns", "c_2dt", "c_dt2", "q_yy", "c_dt", "c_f", "c_f2", "q_bb", "one", "c_360")
 _FMT = {name: 2 * i for i, name in enumerate(FORMAT_FIELDS)}
 _CONST = {name: 2 * len(FORMAT_FIELDS) + 3 * j for j, name in enumerate(CONSTANTS)}
 N_PARAMS = 2 * len(FORMAT_FIELDS) + 3 * len(CONSTANTS)
@@ -81,7 +82,7 @@ MAX_ALIGN = 31  # fixedpoint._align
 MAX_DIV_SHIFT = 30  # fixedpoint.div
 
 
-def kernel_params(kf: FixedYawFilter) -> np.ndarray:
+def kernel_params(kf: "FixedYawFilter") -> np.ndarray:
     """int64[N_PARAMS]: the formats (word, frac bits) and the constants (raw, frac, word bits) of ``kf``."""
     f = kf.formats
     if kf.ctx.rounding is not Rounding.HALF_EVEN or kf.ctx.overflow is not Overflow.SATURATE:
@@ -105,7 +106,7 @@ def kernel_params(kf: FixedYawFilter) -> np.ndarray:
     return p
 
 
-def lane_states(kf: FixedYawFilter) -> np.ndarray:
+def lane_states(kf: "FixedYawFilter") -> np.ndarray:
     """int64 (R, 5): the yaw, bias, P_yy, P_yb, P_bb raws of every realization (a copy)."""
     R = kf.realizations
     return np.stack([np.broadcast_to(np.asarray(getattr(kf, n).raw, dtype=np.int64), (R,)) for n in STATE_FIELDS], 1)
@@ -302,6 +303,20 @@ def update(state, ref_rad, var_rad2, params, counts):
     ref_raw = _from_float_wrap(ref_rad / TURN_RAD, params[W_YAW], params[W_YAW + 1])
     r_raw = _from_float_sat(v, params[W_YY], params[W_YY + 1], counts, S_REF_VAR)
     _update_raw(state, ref_raw, r_raw, params, counts)
+
+
+@njit(cache=True)
+def predict_raw_lanes(states, rate_raws, params, counts):
+    """:func:`_predict_raw` of every lane (rows of ``states``); ``counts`` summed over the lanes."""
+    for r in range(states.shape[0]):
+        _predict_raw(states[r], rate_raws[r], params, counts)
+
+
+@njit(cache=True)
+def update_raw_lanes(states, ref_raws, r_raws, params, counts):
+    """:func:`_update_raw` of every lane (rows of ``states``); ``counts`` summed over the lanes."""
+    for r in range(states.shape[0]):
+        _update_raw(states[r], ref_raws[r], r_raws[r], params, counts)
 
 
 @njit(cache=True)

@@ -24,6 +24,12 @@ from channel.errors import ChannelError
 from nodesim.errors import NodesimError
 
 
+DATA_FRAME_BITS = 272.0
+"""The chain's data frame on air: ``mac.preamble_bits`` (56) + the 27-byte estimate frame (firmware_model.frames);
+a literal so the CLI parser imports no numba or pydantic (tests/nodesim/chain/test_mac.py checks it equals
+``MacSection().data_frame_bits``)."""
+
+
 @dataclass(frozen=True)
 class Param:
     key: str
@@ -36,7 +42,8 @@ _BUDGET = (
     Param("rx_gain_dbi", 0.0, "receive antenna gain [dBi]"),
     Param("other_losses_db", 0.0, "other fixed losses: cables, coupling, mismatch [dB]"),
     Param("target_margin_db", 10.0, "margin to keep when answering 'how far apart' [dB]"),
-    Param("frame_bits", 160.0, "frame length for the packet error rate [bits]"),
+    Param("frame_bits", DATA_FRAME_BITS, "frame length on air for the packet error rate [bits] "
+          "(default: the chain's data frame, mac.preamble_bits + the estimate frame)"),
     Param("bit_rate_bps", per.Radio.bit_rate_bps, "bit rate [bit/s] (assumption)"),
     Param("bandwidth_hz", per.Radio.bandwidth_hz, "receiver noise bandwidth [Hz] (assumption)"),
     Param("noise_figure_db", per.Radio.noise_figure_db, "receiver noise figure [dB] (assumption)"),

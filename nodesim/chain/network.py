@@ -92,6 +92,9 @@ class NodeRun:
     # what the firmware read and the references it used (for replay logs, nodesim.replay.chain_log)
     gyro_rad_s: np.ndarray | None = None  # (R, K) tick-averaged z gyro
     specific_force: np.ndarray | None = None  # (R, K, 3) sensor frame
+    gyro_counts: np.ndarray | None = None  # (R, K, 3) int64 per-tick sums of the int16 samples
+    accel_counts: np.ndarray | None = None  # (R, K, 3) int64
+    samples: np.ndarray | None = None  # (K,) int64 samples per tick
     ref_yaw_rad: np.ndarray | None = None  # (R, K) NaN where no update
     ref_var_rad2: np.ndarray | None = None
     present_from_s: float = 0.0
@@ -280,6 +283,9 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         firmware_overflows=_overflows(node),
         gyro_rad_s=node.sig.gyro_rad_s,
         specific_force=node.sig.specific_force,
+        gyro_counts=node.sig.gyro_counts,
+        accel_counts=node.sig.accel_counts,
+        samples=node.sig.samples,
         ref_yaw_rad=node.ref_yaw,
         ref_var_rad2=node.ref_var,
         present_from_s=node.timeline.present_from_s,

@@ -3,6 +3,8 @@
 One row per node and firmware tick from the node's power-up (``tick`` = 1), SI units:
   - ``gyro_z``: the tick-averaged z-gyro rate the node's filter used (``gyro_x``/``gyro_y`` are 0: the chain
     simulates the z axis only); ``accel_*``: the tick-averaged sensor-frame specific force;
+  - ``gyro_sum_*``, ``accel_sum_*``, ``samples``: the integer sums of the int16 counts the node read per tick
+    and their number (what the fixed-point firmware consumes);
   - ``encoder``: the encoder reading at the tick (the lab setup starts every node from it);
   - ``static``, ``hold``: the node's static bias window and its tube-insertion holds;
   - ``ref_update``, ``ref_yaw``, ``ref_var``: the reference each applied update used (encoder for the top node,
@@ -66,6 +68,11 @@ def chain_recordings(run, scenario: Scenario, realization: int = 0) -> list[Node
             "true_inclination": n.true_inclination_rad[present],
             "true_azimuth": n.true_azimuth_rad[present],
         }
+        if n.gyro_counts is not None:  # what the fixed-point firmware read: integer count sums per tick
+            for i, axis in enumerate("xyz"):
+                cols[f"gyro_sum_{axis}"] = n.gyro_counts[r][present][:, i]
+                cols[f"accel_sum_{axis}"] = n.accel_counts[r][present][:, i]
+            cols["samples"] = n.samples[present]
         out.append(NodeRecording(n.node_id, cols))
     return out
 

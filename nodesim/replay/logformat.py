@@ -29,6 +29,12 @@ optional columns
                                  empty on rows without an output
     ``true_yaw``, ``true_inclination``, ``true_azimuth``
                                  the truth, where known (simulated logs; ``angle_unit``)
+    ``gyro_sum_*``, ``accel_sum_*``, ``samples``
+                                 on ``tick`` rows: the integer sums of the int16 ADC counts the firmware read
+                                 since its previous tick and their number (``gyro_lsb_per_deg_s`` and
+                                 ``accel_lsb_per_g`` in the header give their scale); the fixed-point replay
+                                 feeds them to the firmware as they are.  Without them it sums the samples'
+                                 counts itself (raw counts, or SI values requantised to the configured ADC)
     ``x_*``                      free user columns, ignored
 
 header (CSV: ``# key = value`` lines before the column names, the first being ``# nodesim-log 1``;
@@ -64,6 +70,8 @@ OPTIONAL = (
     "seq",
     *FIRMWARE_OUTPUTS, *TRUTH,
 )
+TICK_SUMS = ("gyro_sum_x", "gyro_sum_y", "gyro_sum_z", "accel_sum_x", "accel_sum_y", "accel_sum_z", "samples")
+OPTIONAL = OPTIONAL + TICK_SUMS
 FLAGS = ("tick", "static", "hold", "ref_update")
 USER_PREFIX = "x_"
 
@@ -183,6 +191,6 @@ def parquet_metadata(meta: LogMeta) -> dict[bytes, bytes]:
 
 
 __all__ = [
-    "FORMAT_NAME", "FORMAT_VERSION", "REQUIRED", "OPTIONAL", "GYRO", "ACCEL", "FIRMWARE_OUTPUTS", "TRUTH", "FLAGS",
+    "FORMAT_NAME", "FORMAT_VERSION", "REQUIRED", "OPTIONAL", "TICK_SUMS", "GYRO", "ACCEL", "FIRMWARE_OUTPUTS", "TRUTH", "FLAGS",
     "LogMeta", "meta_from_dict", "parse_csv_header", "format_csv_header", "parquet_metadata",
 ]

@@ -29,19 +29,23 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from firmware_model import fixed_kernel as fk
+from firmware_model import fixedpoint as fxp
+from firmware_model import node_firmware as nf
+from firmware_model.config import GYRO_SENS_X10, FirmwareConfig
 from firmware_model.fixed_filter import FixedFormats
 from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import YawFilterConfig
 from nodesim.sensors.allan import AllanNoise, overlapping_adev, read_noise
 from nodesim.chain.compiled.surveys import averaged_surveys
-from nodesim.chain.estimator import filter_config, fixed_formats
+from nodesim.chain.estimator import FirmwareLanes, filter_config, firmware_config, fixed_formats
 from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
 from nodesim.replay.reader import NodeLog, ReplayLog
 from nodesim.scenario.schema import Scenario
 from nodesim.scenario.schedules import UpdateSchedule
 from nodesim.sensors.encoder import RotaryEncoder
-from nodesim.sensors.imu import average_per_tick
+from nodesim.sensors.imu import average_per_tick, sum_per_tick
 
 SCHEDULE_HELP = "recorded | config | continuous | none | windowed:UPDATE_S:TIMEOUT_S | single:RATE_HZ"
 
@@ -61,6 +65,7 @@ class FirmwareSetup:
     config_schedule: UpdateSchedule
     noise_source: str = "config"
     formats: FixedFormats | None = None  # fixed filter: its Q formats (filter.fixed_word_bits)
+    firmware: FirmwareConfig | None = None  # fixed implementation: the firmware build the chain runs
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
@@ -78,6 +83,7 @@ class FirmwareSetup:
             config_schedule=schedule_of(scenario),
             noise_source="allan" if noise else "config",
             formats=fixed_formats(scenario),
+            firmware=firmware_config(scenario) if f.implementation == "fixed" else None,
         )
 
 
@@ -200,6 +206,8 @@ def references(node: NodeLog, ticks: np.ndarray, enc: np.ndarray, schedule: Upda
 def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float, is_top: bool,
                 hold_gaps: bool = False) -> NodeReplay:
     """Run the firmware over one node's samples (see the module docstring)."""
+    if setup.firmware is not None:
+        return replay_node_firmware(node, setup, schedule, t_log, is_top, hold_gaps)
     ticks = tick_times(node, setup.rate_hz)
     both = np.concatenate([node.gyro_rad_s[:, 2:3], node.accel_m_s2], axis=1)
     avg = average_per_tick(node.t_s, both, ticks, hold_empty=hold_gaps)
@@ -240,6 +248,74 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
                          inc[None, first:], azi[None, first:])  # what a chain run reports, computed the same way
     return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held,
                       kf.overflow_counts if kf is not None else {})
+
+
+def gyro_tick_counts(node: NodeLog, ticks: np.ndarray, cfg: FirmwareConfig, hold_gaps: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(z-gyro count sum (K,), samples (K,)) the firmware reads at each tick: the log's ``gyro_sum_z`` and
+    ``samples`` where it records them (a simulated run), else the samples' int16 counts summed per tick
+    (:func:`nodesim.sensors.imu.sum_per_tick`), a sample in SI units requantised to the configured ADC
+    (``sensor.gyro_full_scale_dps``: ``rint(rate [deg/s] x LSB per deg/s)``, clipped to int16)."""
+    if node.has("gyro_sum_z") and node.has("samples"):
+        gz, n = _per_tick(node, ticks, "gyro_sum_z"), _per_tick(node, ticks, "samples")
+        bad = ~(np.isfinite(gz) & np.isfinite(n) & (n >= 1))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise NodesimError(f"node {node.node_id}: tick {k} (t = {ticks[k]:.6g} s) has no gyro_sum_z / samples "
+                               f"(samples >= 1 needed on every tick row)")
+        return gz.astype(np.int64), n.astype(np.int64)
+    lsb = GYRO_SENS_X10[cfg.gyro_full_scale_dps] / 10.0
+    counts = np.clip(np.rint(node.gyro_rad_s[:, 2] * (180.0 / math.pi) * lsb), -32768, 32767).astype(np.int64)
+    sums, n = sum_per_tick(node.t_s, counts[:, None], ticks, hold_empty=hold_gaps)
+    return sums[:, 0], n
+
+
+def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float,
+                         is_top: bool, hold_gaps: bool = False) -> NodeReplay:
+    """The fixed-point replay: the node firmware itself (:func:`firmware_model.node_firmware.node_tick`, as the
+    chain's engines run it) fed the tick's gyro counts, every reference given to it as a direct update
+    (``DIRECT_REF``: the recorded references are the firmware's own words after the eq 3.29 advance, so
+    ``rint(ref / 2 pi x 2^32)`` and ``rint(var x (180/pi)^2 x 2^F)`` give them back exactly)."""
+    cfg = setup.firmware
+    ticks = tick_times(node, setup.rate_hz)
+    gz, n = gyro_tick_counts(node, ticks, cfg, hold_gaps)
+    both = np.concatenate([node.gyro_rad_s[:, 2:3], node.accel_m_s2], axis=1)
+    force = average_per_tick(node.t_s, both, ticks, hold_empty=hold_gaps)[:, 1:]
+    edges = np.searchsorted(node.t_s, np.concatenate([[2 * ticks[0] - ticks[1]], ticks]), side="right")
+    held = int(np.count_nonzero(np.diff(edges) == 0))
+    enc = encoder_at(node, ticks)
+    mask, ref, var = references(node, ticks, enc, schedule, setup, t_log, is_top)
+    ref_raw = cfg.encoder_yaw_raw(np.where(mask, ref, 0.0))
+    var_raw = np.asarray(fxp.from_float(np.where(mask, var, 0.0) * fk.RAD2_TO_DEG2, cfg.formats.p_yy,
+                                        overflow=fxp.Overflow.SATURATE).raw, dtype=np.int64).reshape(-1)
+    K = ticks.size
+    yaw, pvar, bias = np.full(K, np.nan), np.full(K, np.nan), np.full(K, np.nan)
+    applied, running = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
+    static = (_per_tick(node, ticks, "static") == 1.0) if node.has("static") else ticks < t_log + setup.bias_window_s
+    hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(K, dtype=bool)
+    no_enc = node.encoder_rad is None
+    fw = FirmwareLanes(cfg, 1)
+    for k in range(K):
+        if static[k]:
+            fw.tick(nf.STATIC, gz[k], n[k])
+            yaw[k] = 0.0 if no_enc else enc[k]
+            continue
+        if fw.states[0, nf.S_RUNNING] == 0:
+            fw.tick(nf.START, gz[k], n[k], yaw0_raw=0 if no_enc else cfg.encoder_yaw_raw(enc[k]))
+        elif hold[k]:
+            fw.tick(nf.HOLD, gz[k], n[k])
+        else:
+            fw.tick(nf.RUN, gz[k], n[k], ref=nf.DIRECT_REF if mask[k] else nf.NO_REF, ref_yaw_raw=ref_raw[k],
+                    ref_aux_raw=var_raw[k])
+            applied[k] = mask[k]
+            running[k] = True
+        yaw[k], pvar[k], bias[k] = fw.yaw_rad[0], fw.yaw_variance_rad2[0], fw.bias_rad_s[0]
+    inc, azi = np.full(K, np.nan), np.full(K, np.nan)
+    have = np.isfinite(yaw)
+    if have.any():
+        first = int(np.argmax(have))
+        averaged_surveys(np.ascontiguousarray(force[None, first:]), yaw[None, first:], setup.moving_average_points,
+                         inc[None, first:], azi[None, first:])
+    return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held, fw.overflow_counts)
 
 
 def replay_log(log: ReplayLog, setup: FirmwareSetup, schedule: UpdateSchedule | None) -> tuple[NodeReplay, ...]:

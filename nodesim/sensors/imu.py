@@ -195,6 +195,40 @@ class ImuSpec:
         )
 
 
+def _tick_bins(sample_t_s, ticks: np.ndarray, hold_empty: bool, who: str):
+    """(first sample index of each tick's bin (K+1,), samples per tick (K,), empty (K,)) for the bins
+    (t_{k-1}, t_k] (the first tick's bin as long as the second's); a tick without a sample is an error
+    unless ``hold_empty`` (the first tick must still have one)."""
+    t = np.asarray(sample_t_s, dtype=float)
+    if ticks.size < 2:
+        raise NodesimError(f"{who}: need at least two tick times")
+    edges = np.concatenate([[ticks[0] - (ticks[1] - ticks[0])], ticks])
+    idx = np.searchsorted(t, edges, side="right")  # samples with t <= edge come before idx
+    counts = np.diff(idx)
+    empty = counts == 0
+    if np.any(empty) and (not hold_empty or empty[0]):
+        k = int(np.flatnonzero(empty)[0])
+        raise NodesimError(f"{who}: firmware tick {k} (t = {ticks[k]:.4g} s) has no sensor sample")
+    return idx, counts, empty
+
+
+def sum_per_tick(sample_t_s: np.ndarray, counts: np.ndarray, tick_t_s: np.ndarray,
+                 hold_empty: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(integer sums (K, C), number of samples (K,)) of the int ADC ``counts`` (N, C) in (t_{k-1}, t_k] for each
+    firmware tick k: what the node firmware accumulates from the sensor FIFO between two ticks (the bins of
+    :func:`average_per_tick`).  A tick without a sample repeats the previous tick's sum and number where
+    ``hold_empty`` (else it is an error), as the averaging repeats the previous mean."""
+    ticks = np.asarray(tick_t_s, dtype=float)
+    idx, n, empty = _tick_bins(sample_t_s, ticks, hold_empty, "sum_per_tick")
+    c = np.asarray(counts, dtype=np.int64)
+    full = ~empty
+    sums = np.add.reduceat(c[: idx[-1]], idx[:-1][full], axis=0)
+    if not empty.any():
+        return sums, n.astype(np.int64)
+    src = np.maximum.accumulate(np.where(full, np.arange(ticks.size), 0))
+    return sums[np.cumsum(full)[src] - 1], n[src].astype(np.int64)
+
+
 def average_per_tick(sample_t_s: np.ndarray, values: np.ndarray, tick_t_s: np.ndarray, hold_empty: bool = False) -> np.ndarray:
     """Mean of the samples in (t_{k-1}, t_k] for each firmware tick k (sample axis = -2 of ``values``).
 
@@ -204,17 +238,8 @@ def average_per_tick(sample_t_s: np.ndarray, values: np.ndarray, tick_t_s: np.nd
     tick's mean (the first tick must still have a sample).  Each tick sums its own samples
     (``np.add.reduceat``), so a tick with one sample gets that sample bit for bit.
     """
-    t = np.asarray(sample_t_s, dtype=float)
     ticks = np.asarray(tick_t_s, dtype=float)
-    if ticks.size < 2:
-        raise NodesimError("average_per_tick: need at least two tick times")
-    edges = np.concatenate([[ticks[0] - (ticks[1] - ticks[0])], ticks])
-    idx = np.searchsorted(t, edges, side="right")  # samples with t <= edge come before idx
-    counts = np.diff(idx)
-    empty = counts == 0
-    if np.any(empty) and (not hold_empty or empty[0]):
-        k = int(np.flatnonzero(empty)[0])
-        raise NodesimError(f"average_per_tick: firmware tick {k} (t = {ticks[k]:.4g} s) has no sensor sample")
+    idx, counts, empty = _tick_bins(sample_t_s, ticks, hold_empty, "average_per_tick")
     v = np.asarray(values, dtype=float)
     full = ~empty
     sums = np.add.reduceat(v[..., : idx[-1], :], idx[:-1][full], axis=-2)

@@ -156,3 +156,10 @@ def test_perf_scenario_is_the_benchmark_chain():
     assert s.radio.model == "channel" and s.radio.kind == "soil" and s.mac.enabled
     hops, _ = hop_channels(s, RunStreams(s.seed, s.chain.nodes), 1)
     assert 0.05 < hops[1].per_data_table[0, 0] < 0.3  # lossy soil hops
+
+
+def test_the_link_what_if_default_frame_is_the_chain_data_frame():
+    from nodesim.chain.link_whatif import DATA_FRAME_BITS
+    from nodesim.scenario.radio_sections import MacSection
+
+    assert DATA_FRAME_BITS == MacSection().data_frame_bits
