@@ -41,7 +41,7 @@ from firmware_model import node_firmware as nf
 from nodesim.chain.estimator import (FirmwareLanes, firmware_config, forwarded_reference, new_filter, rate_estimate,
                                      timer_us, yaw_rad_of_raw)
 from nodesim.motion.timelines import NodeTimeline
-from nodesim.chain.packets import EstimatePacket, SurveyPacket, select_reference
+from nodesim.chain.packets import EstimatePacket, SurveyPacket, estimate_frame, select_reference
 from nodesim.chain.sensing import NodeSignals
 
 
@@ -297,14 +297,17 @@ class ChainNode:
     def _transmit(self, k: int, t: float, valid: np.ndarray) -> None:
         """Send the estimate to the node below (or, where this node fell back, to the one after it)."""
         net = self.net
-        if self.fixed:  # the frame's fields: binary angle, P_yy raw, bias-corrected rate
-            raws = dict(yaw_raw=self.fw.yaw_raw, var_raw=self.fw.var_raw)
-            rate = self.fw.rate_rad_s(self.fw.outputs[:, nf.OUT_RATE])
+        seq = net.next_seq()
+        if self.fixed:  # issue 19b: the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias)
+            rate_raw = self.fw.outputs[:, nf.OUT_RATE]
+            raws = dict(frame=estimate_frame(self.node_id, seq, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
+                                             rate_raw, self.fw.states[:, fk.I_BIAS]))
+            rate = self.fw.rate_rad_s(rate_raw)
         else:
             raws, rate = {}, rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])
         pkt = EstimatePacket(
             sender=self.node_id,
-            seq=net.next_seq(),
+            seq=seq,
             t_read_s=float(t),
             yaw_rad=self.yaw[:, k].copy(),  # recorded this tick (the filter's state after the update)
             yaw_var_rad2=self.var[:, k].copy(),

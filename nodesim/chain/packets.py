@@ -14,6 +14,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from firmware_model import frames as fr
+
 
 @dataclass(frozen=True)
 class EstimatePacket:
@@ -27,11 +29,28 @@ class EstimatePacket:
     rate_rad_s: np.ndarray  # the sender's bias-corrected rate estimate
     valid: np.ndarray  # bool (R,)
     arrival_s: np.ndarray | None = None  # (R,) when it reached the receiver (None: before any use)
-    yaw_raw: np.ndarray | None = None  # fixed-point firmware: the frame's binary angle and P_yy raw (int64 (R,))
-    var_raw: np.ndarray | None = None
+    frame: np.ndarray | None = None  # fixed-point firmware: the estimate frame's bytes (R, 27) uint8 (estimate_frame)
 
     def lost_where(self, lost: np.ndarray) -> "EstimatePacket":
         return replace(self, valid=self.valid & ~lost)
+
+
+_EST = fr.FIELDS[fr.ESTIMATE]
+_YAW, _PYY = fr.field_index(fr.ESTIMATE, "yaw"), fr.field_index(fr.ESTIMATE, "P_yy")
+
+
+def estimate_frame(node: int, seq: int, t_read_us, yaw_raw, var_raw, rate_raw, bias_raw) -> np.ndarray:
+    """The estimate frame of every realization, (R, 27) uint8 (:mod:`firmware_model.frames`, docs/firmware.md
+    "Frames"): node, seq (mod 2^16), t_read_us (mod 2^32), yaw (binary angle), P_yy, rate, bias raws in the
+    build's formats (Q0.32, Q8.24, Q16.16, Q16.16 by default; a shorter word fits the same 32-bit fields)."""
+    R = np.shape(yaw_raw)[0]
+    v = np.empty((R, len(_EST)), dtype=np.int64)
+    v[:, 0], v[:, 1], v[:, 2] = node, seq, t_read_us
+    v[:, 3], v[:, 4], v[:, 5], v[:, 6] = yaw_raw, var_raw, rate_raw, bias_raw
+    frames, status = fr.encode_lanes(v, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE, fr.ESTIMATE_BYTES)
+    if (status < 0).any():
+        fr.encode(fr.ESTIMATE, v)  # raises the FirmwareError naming the lane and field
+    return frames
 
 
 @dataclass(frozen=True)
@@ -61,8 +80,9 @@ class Selection:
     seq: np.ndarray  # int, -1 where none
     stale: np.ndarray  # int counts of newer-than-used but too old packets
     duplicate: np.ndarray  # int counts of packets with seq <= the last one used
-    yaw_raw: np.ndarray | None = None  # the chosen frames' raws (fixed-point firmware), 0 where none
+    yaw_raw: np.ndarray | None = None  # the chosen frames' decoded yaw and P_yy words (fixed firmware), 0 where none
     var_raw: np.ndarray | None = None
+    crc_rejected: np.ndarray | None = None  # int counts of received frames whose CRC (or type byte) failed
 
 
 def select_reference(
@@ -80,11 +100,17 @@ def select_reference(
     seq = np.full(R, -1, dtype=np.int64)
     stale = np.zeros(R, dtype=np.int64)
     dup = np.zeros(R, dtype=np.int64)
-    raws = any(p.yaw_raw is not None for p in inbox)
+    raws = any(p.frame is not None for p in inbox)
     yaw_raw, var_raw = (np.zeros(R, dtype=np.int64), np.zeros(R, dtype=np.int64)) if raws else (None, None)
+    rejected = np.zeros(R, dtype=np.int64) if raws else None
     for pkt in sorted(inbox, key=lambda p: p.seq, reverse=True):  # newest first
-        newer = pkt.valid & (pkt.seq > last_seq)
-        dup += pkt.valid & ~newer
+        valid = pkt.valid
+        if raws:  # the receiver decodes the bytes: a frame failing its CRC is dropped and counted
+            words, ok = fr.decode_lanes(pkt.frame, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE)
+            rejected += valid & ~ok
+            valid = valid & ok
+        newer = valid & (pkt.seq > last_seq)
+        dup += valid & ~newer
         if t_use_s - pkt.t_read_s > max_age_s:
             stale += newer & ~have
             continue
@@ -94,7 +120,7 @@ def select_reference(
         t_read = np.where(take, pkt.t_read_s, t_read)
         seq = np.where(take, pkt.seq, seq)
         if raws:
-            yaw_raw = np.where(take, pkt.yaw_raw, yaw_raw)
-            var_raw = np.where(take, pkt.var_raw, var_raw)
+            yaw_raw = np.where(take, words[:, _YAW], yaw_raw)
+            var_raw = np.where(take, words[:, _PYY], var_raw)
         have |= take
-    return Selection(have, yaw, var, t_read, seq, stale, dup, yaw_raw, var_raw)
+    return Selection(have, yaw, var, t_read, seq, stale, dup, yaw_raw, var_raw, rejected)

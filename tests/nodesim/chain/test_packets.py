@@ -92,3 +92,23 @@ def test_next_uniforms_equal_successive_single_draws_across_block_ends():
         pair = a.next_uniforms(3, m)
         single = np.stack([b.next_uniform(m) for _ in range(3)], axis=1)
         assert np.array_equal(pair, single, equal_nan=True)
+
+
+def test_the_receiver_decodes_the_estimate_frame_and_drops_a_corrupted_one():
+    """Fixed firmware: the packet carries the 27-byte estimate frame; select_reference takes yaw and P_yy from the
+    decoded bytes, and a frame whose CRC fails is not used (an older good frame is) and is counted."""
+    from nodesim.chain.packets import estimate_frame
+
+    R = 3
+    yaw, var = np.array([-2**31, 5, 2**31 - 1]), np.array([1 << 24, 7, 0])
+    old = estimate_frame(2, 10, 1_000_000, yaw - 1, var + 1, np.zeros(R), np.ones(R))
+    new = estimate_frame(2, 11, 1_500_000, yaw, var, np.zeros(R), np.ones(R))
+    assert new.shape == (R, 27) and new.dtype == np.uint8
+    new[1, 9] ^= 0x10  # one bit of realization 1's yaw
+    pkts = [EstimatePacket(2, s, t, np.zeros(R), np.zeros(R), np.zeros(R), np.ones(R, bool), frame=f)
+            for s, t, f in ((10, 1.0, old), (11, 1.5, new))]
+    sel = select_reference(pkts, np.full(R, -1), 2.0, 10.0)
+    assert list(sel.seq) == [11, 10, 11]
+    assert list(sel.yaw_raw) == [yaw[0], yaw[1] - 1, yaw[2]]
+    assert list(sel.var_raw) == [var[0], var[1] + 1, var[2]]
+    assert list(sel.crc_rejected) == [0, 1, 0]
