@@ -15,6 +15,7 @@ def register(sub) -> None:
     )
     p.add_argument("scenario", type=Path, help="scenario TOML file")
     p.add_argument("--out", type=Path, default=None, help="run directory (default runs/<name>-<UTC timestamp>)")
+    p.add_argument("--force", action="store_true", help="replace a non-empty --out directory (written aside, then swapped in)")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's root seed")
     p.add_argument("--realizations", type=int, default=None, help="override simulation.realizations")
     p.add_argument("--dry-run", action="store_true", help="validate and print the resolved scenario; write nothing")
@@ -43,10 +44,11 @@ def run(args) -> int:
     from nodesim.sweep.progress import SimulatedTimeProgress
 
     out = args.out if args.out is not None else default_run_dir(scenario.name)
-    check_unused(out)  # before simulating: a used directory is refused at once
+    if not args.force:
+        check_unused(out)  # before simulating: a used directory is refused at once
     with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
         result = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
-    out = result.save(out)
+    out = result.save(out, force=args.force)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 
