@@ -138,8 +138,8 @@ class DaskExecutor:
     def __init__(self, scheduler: str | None = None, workers: int | None = None, processes: bool = True):
         try:
             from distributed import Client, LocalCluster
-        except ImportError as err:  # pragma: no cover - dask is a runtime dependency
-            raise NodesimError(f"--executor dask needs dask[distributed] ({err})") from None
+        except ImportError as err:  # dask is the optional [dask] extra
+            raise NodesimError(f"--executor dask needs dask[distributed]: pip install 'nodesim[dask]' ({err})") from None
         if workers is not None and not 1 <= workers <= 4096:
             raise NodesimError(f"--workers must be in [1, 4096] (got {workers})")
         self.scheduler = scheduler
