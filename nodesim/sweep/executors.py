@@ -9,7 +9,8 @@ sorts them), keep a bounded number of runs in flight (2 per worker) and share on
   attempt (a dying local pool takes down every run in flight on it, so each of those is charged).  After
   ``task.max_attempts`` attempts the run is recorded as failed with the last error and the campaign goes on.
 
-The local pool uses the ``forkserver`` start method where available (children forked from a clean server
+The local pool dies with its driver: :mod:`nodesim.sweep.watchdog` kills its processes and removes its
+temporary directory when the driver exits, even by SIGKILL.  The local pool uses the ``forkserver`` start method where available (children forked from a clean server
 process that has pre-imported the simulator, so no threads or locks of the driver are inherited) and
 ``spawn`` elsewhere.  Results do not depend on the executor: every run is seeded by its task alone.
 """
@@ -65,6 +66,13 @@ class LocalExecutor:
         self._pool: ProcessPoolExecutor | None = None
 
     def _new_pool(self) -> ProcessPoolExecutor:
+        # before any pool process exists: the watchdog kills them and removes multiprocessing's temporary
+        # directory (the fork server's socket) if this driver dies without shutting the pool down
+        from multiprocessing.util import get_temp_dir
+
+        from nodesim.sweep import watchdog
+
+        watchdog.start([get_temp_dir()])
         methods = mp.get_all_start_methods()
         if "forkserver" in methods:
             ctx = mp.get_context("forkserver")
