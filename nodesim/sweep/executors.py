@@ -158,12 +158,21 @@ class DaskExecutor:
             except (OSError, TimeoutError) as err:
                 raise NodesimError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})") from None
         else:
+            import tempfile
+
+            from nodesim.sweep import watchdog
+
+            # the workers' scratch space in a directory of our own, removed on close (and by the watchdog
+            # if this driver dies), instead of a dask-scratch-space left in the temp directory
+            self._scratch = tempfile.mkdtemp(prefix="nodesim-dask-")
+            watchdog.start([self._scratch])
             self.cluster = LocalCluster(
                 n_workers=workers or os.cpu_count() or 1,
                 threads_per_worker=1,
                 processes=processes,
                 dashboard_address=None,
                 silence_logs=logging.ERROR,
+                local_directory=self._scratch,
             )
             self.client = Client(self.cluster)
 
@@ -210,6 +219,9 @@ class DaskExecutor:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+            import shutil
+
+            shutil.rmtree(self._scratch, ignore_errors=True)
 
     def __enter__(self):
         return self
