@@ -19,6 +19,7 @@ OPTION_OF = {
     "report": "RUN_OR_CAMPAIGN_DIR",
     "validate": "--json",
     "bench": "--json",
+    "export": "--to",
 }
 
 
