@@ -20,6 +20,7 @@ OPTION_OF = {
     "validate": "--json",
     "bench": "--json",
     "export": "--to",
+    "scenario": "--schema",
 }
 
 
