@@ -114,3 +114,15 @@ def test_replace_dir_without_renameat2_swaps_by_two_renames(tmp_path, monkeypatc
     with rundir.replace_dir(old) as stage:
         (stage / "y").write_text("new")
     assert _snapshot(old) == {"y": b"new"} and [p.name for p in tmp_path.iterdir()] == ["d"]
+
+
+def test_the_terminal_summary_shows_the_headline_and_the_bottom_node_unless_all():
+    from nodesim.cli.run_command import shown_keys
+
+    summary = {"rms_azimuth_error_deg": 1.0, "nodes": 3, "timing": {}, "delivery_ratio": 1.0}
+    for n in (1, 2, 3):
+        summary[f"node{n}_rms_azimuth_error_deg"] = float(n)
+    for h in (1, 2, 3):
+        summary[f"hop{h}_latency_s"] = 0.01
+    assert shown_keys(summary) == ["rms_azimuth_error_deg", "nodes", "delivery_ratio", "node3_rms_azimuth_error_deg"]
+    assert len(shown_keys(summary, every_key=True)) == len(summary) - 1
