@@ -54,6 +54,7 @@ class ExportTable:
 def read_source(source: str | Path, seconds_per_station: float = 60.0):
     """The :class:`~nodesim.ground.survey.Survey` of a run directory (its ``ground_survey.csv``) or a survey CSV."""
     from nodesim.ground import read_survey_csv
+    from nodesim.ground.survey import read_survey_file
 
     p = Path(source)
     if p.is_dir():
@@ -63,7 +64,7 @@ def read_source(source: str | Path, seconds_per_station: float = 60.0):
         return read_survey_csv(gs, seconds_per_station), str(gs)
     if not p.is_file():
         raise NodesimError(f"{p}: no such run directory or survey file")
-    return read_survey_csv(p, seconds_per_station), str(p)
+    return read_survey_file(p, seconds_per_station), str(p)
 
 
 def export_table(source: str | Path, tool: str = DEFAULT_TOOL, seconds_per_station: float = 60.0) -> ExportTable:

@@ -111,12 +111,62 @@ REQUIRED_COLUMNS = ("md_m", "inc_deg", "azi_deg")
 OPTIONAL_COLUMNS = ("time_s", "sigma_inc_deg", "sigma_azi_deg")
 
 
-def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
-    """Read a survey CSV (header ``md_m,inc_deg,azi_deg`` plus optional ``time_s``, ``sigma_inc_deg``,
-    ``sigma_azi_deg``; any other column is rejected); errors name the file, its line (as an editor numbers
-    it) and the column.  Angles must lie in inc [0, 180] and azi [0, 360] degrees."""
+FT_M = 0.3048  # international foot, exactly
+DEPTH_COLUMNS = {"md_m": 1.0, "md_ft": FT_M}
+
+
+def read_survey_las(path: Path, seconds_per_station: float = 60.0, units: str | None = None) -> Survey:
+    """Read a survey from a LAS file (lasio): the index is measured depth, curves ``INC`` and ``AZI`` in
+    degrees (as ``nodesim export --to las`` writes).  The depth unit is the index curve's (M or FT/F), or
+    ``units`` ("m"/"ft") when the file gives none; a file that states one unit while ``units`` says another
+    is an error."""
+    try:
+        import lasio
+    except ImportError as err:
+        raise NodesimError(f"{path}: reading LAS needs lasio: pip install lasio ({err})") from None
+    try:
+        las = lasio.read(str(path))
+    except Exception as err:  # lasio raises many types on a malformed file
+        raise NodesimError(f"{path}: not a readable LAS file ({type(err).__name__}: {err})") from None
+    mnemonics = [c.mnemonic.upper() for c in las.curves]
+    missing = [c for c in ("INC", "AZI") if c not in mnemonics]
+    if missing:
+        raise NodesimError(f"{path}: LAS file has no {', '.join(missing)} curve (curves: {mnemonics})")
+    unit = (las.curves[0].unit or "").strip().upper()
+    file_units = {"M": "m", "FT": "ft", "F": "ft"}.get(unit)
+    if unit and file_units is None:
+        raise NodesimError(f"{path}: depth unit {unit!r} of the index curve: allowed M, FT")
+    if file_units and units and file_units != units:
+        raise NodesimError(f"{path}: the file's depth unit is {unit} but --units {units} was given")
+    scale = DEPTH_COLUMNS["md_ft" if (file_units or units or "m") == "ft" else "md_m"]
+    curve = {c.mnemonic.upper(): np.asarray(c.data, dtype=float) for c in las.curves}
+    return make_survey(np.asarray(las.index, dtype=float) * scale, curve["INC"], curve["AZI"], None,
+                       seconds_per_station, where=str(path))
+
+
+def read_survey_file(path: Path, seconds_per_station: float = 60.0, units: str | None = None) -> Survey:
+    """A survey CSV (:func:`read_survey_csv`) or, for a ``.las`` file, LAS (:func:`read_survey_las`).
+    ``units="ft"`` for a CSV whose depth column is ``md_m`` is an error (name the column ``md_ft``)."""
     path = Path(path)
-    header, data, lines = read_table(path, REQUIRED_COLUMNS, "survey", OPTIONAL_COLUMNS)
+    if path.suffix.lower() == ".las":
+        return read_survey_las(path, seconds_per_station, units)
+    if units == "ft":
+        head, _, _ = read_table(path, (), "survey")
+        if "md_ft" not in head:
+            raise NodesimError(f"{path}: --units ft needs the depth column named md_ft (the header has {head[:3]})")
+    return read_survey_csv(path, seconds_per_station)
+
+
+def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
+    """Read a survey CSV (header ``md_m,inc_deg,azi_deg`` -- or ``md_ft`` for depths in feet, converted with
+    1 ft = 0.3048 m -- plus optional ``time_s``, ``sigma_inc_deg``, ``sigma_azi_deg``; any other column is
+    rejected); errors name the file, its line (as an editor numbers it) and the column.  Angles must lie in
+    inc [0, 180] and azi [0, 360] degrees."""
+    path = Path(path)
+    head, _, _ = read_table(path, (), "survey")
+    depth = "md_ft" if "md_ft" in head and "md_m" not in head else "md_m"
+    required = (depth,) + REQUIRED_COLUMNS[1:]
+    header, data, lines = read_table(path, required, "survey", OPTIONAL_COLUMNS)
     cols = {name: [] for name in header}
     for line, row in zip(lines, data):
         if len(row) != len(header):
@@ -134,12 +184,15 @@ def read_survey_csv(path: Path, seconds_per_station: float = 60.0) -> Survey:
         for line, v in zip(lines, cols[name]):
             if not lo <= v <= hi:
                 raise NodesimError(f"{path}, line {line}: {name} {v:g} is outside [{lo:g}, {hi:g}]")
+    if depth != "md_m":
+        cols["md_m"] = [v * DEPTH_COLUMNS[depth] for v in cols.pop(depth)]
     if len(data) >= 2:
         md = cols["md_m"]
         for k in range(1, len(md)):
             if not md[k] > md[k - 1]:
                 kind = "duplicate" if md[k] == md[k - 1] else "decreasing"
-                raise NodesimError(f"{path}, line {lines[k]}: md_m {md[k]:g} is {kind} (after {md[k - 1]:g}); "
+                raise NodesimError(f"{path}, line {lines[k]}: {depth} {md[k] / DEPTH_COLUMNS[depth]:g} is {kind} "
+                                   f"(after {md[k - 1] / DEPTH_COLUMNS[depth]:g}); "
                                    "MD must strictly increase")
     return make_survey(
         cols["md_m"],

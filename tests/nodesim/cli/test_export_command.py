@@ -89,3 +89,26 @@ def test_export_errors_exit_2(tmp_path, capsys, argv, message):
     (tmp_path / "s.csv").write_text(SURVEY)
     assert main(["export", str(src), *argv, "-o", str(tmp_path / "x")]) == 2
     assert message in capsys.readouterr().err and not (tmp_path / "x").exists()
+
+
+def test_uncertainty_reads_feet_and_las_and_gives_the_metric_answer(survey_csv, tmp_path, capsys):
+    """The same well as md_ft CSV (--units ft) and as our LAS export in feet: the same metre positions."""
+    pytest.importorskip("lasio")
+    assert main(["uncertainty", str(survey_csv), "--tool", "dip", "--json"]) == 0
+    ref = json.loads(capsys.readouterr().out)["stations"]
+    lines = SURVEY.splitlines()
+    ft = tmp_path / "well_ft.csv"
+    ft.write_text("\n".join(["md_ft,inc_deg,azi_deg"] + [
+        f"{float(r.split(',')[0]) / FT_M!r},{r.split(',', 1)[1]}" for r in lines[1:]]) + "\n")
+    las = tmp_path / "well.las"
+    assert main(["export", str(survey_csv), "--to", "las", "--units", "ft", "-o", str(las)]) == 0
+    capsys.readouterr()
+    for src in (ft, las):
+        assert main(["uncertainty", str(src), "--tool", "dip", "--units", "ft", "--json"]) == 0
+        got = json.loads(capsys.readouterr().out)["stations"]
+        np.testing.assert_allclose([s["tvd_m"] for s in got], [s["tvd_m"] for s in ref], rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose([s["sigma_n_m"] for s in got], [s["sigma_n_m"] for s in ref], rtol=1e-7)
+    assert main(["uncertainty", str(las), "--tool", "dip", "--units", "m"]) == 2
+    assert "depth unit is FT but --units m" in capsys.readouterr().err
+    assert main(["uncertainty", str(survey_csv), "--tool", "dip", "--units", "ft"]) == 2
+    assert "md_ft" in capsys.readouterr().err
