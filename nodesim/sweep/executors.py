@@ -166,14 +166,17 @@ class DaskExecutor:
             # if this driver dies), instead of a dask-scratch-space left in the temp directory
             self._scratch = tempfile.mkdtemp(prefix="nodesim-dask-")
             watchdog.start([self._scratch])
-            self.cluster = LocalCluster(
-                n_workers=workers or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=processes,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-                local_directory=self._scratch,
-            )
+            import dask
+
+            with dask.config.set({"temporary-directory": self._scratch}):  # dask's own dask-scratch-space too
+                self.cluster = LocalCluster(
+                    n_workers=workers or os.cpu_count() or 1,
+                    threads_per_worker=1,
+                    processes=processes,
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                    local_directory=self._scratch,
+                )
             self.client = Client(self.cluster)
 
     @property

@@ -75,3 +75,24 @@ def test_sigkill_of_the_sweep_driver_leaves_no_process_and_no_temp_dir(make_swee
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+
+
+def test_a_dask_localcluster_leaves_nothing_in_the_temp_dir(make_sweep, tmp_path, monkeypatch):
+    """The LocalCluster's scratch space (dask's dask-scratch-space and the workers' directories) lives in a
+    nodesim-dask-* directory that close() removes."""
+    import tempfile
+
+    from nodesim.sweep.campaign import run_campaign
+    from nodesim.sweep.executors import DaskExecutor
+    from nodesim.sweep.spec import load_sweep
+
+    pytest.importorskip("distributed")
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    spec = load_sweep(make_sweep("seeds = 1\n"))
+    with DaskExecutor(workers=1, processes=False) as ex:
+        assert [p.name.startswith("nodesim-dask-") for p in scratch.iterdir()] == [True]
+        res = run_campaign(spec, tmp_path / "c", ex, quiet=True)
+    assert res.ok == 1
+    assert list(scratch.iterdir()) == []
