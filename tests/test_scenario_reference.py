@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from nodesim.scenario.reference import json_schema, reference_markdown, unit_of
+from nodesim.scenario.scenario_reference import json_schema, reference_markdown, unit_of
 from nodesim.scenario.schema import Scenario
 
 REPO = Path(__file__).resolve().parents[1]

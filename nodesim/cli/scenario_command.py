@@ -19,7 +19,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from nodesim.scenario.reference import json_schema, reference_markdown
+    from nodesim.scenario.scenario_reference import json_schema, reference_markdown
 
     if args.schema:
         sys.stdout.write(json.dumps(json_schema(), indent=2, sort_keys=True) + "\n")
