@@ -26,7 +26,6 @@ import sys
 import tempfile
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 from numba import njit
 
 from firmware_model import fixedpoint as fp
@@ -47,7 +46,7 @@ def fixedpoint_vs_fxpmath() -> dict:
     try:
         from fxpmath import Fxp  # a test/bench dependency (pyproject [test] extra), not a runtime one
     except ImportError as exc:
-        raise NodesimError("benchmark fixedpoint_vs_fxpmath needs fxpmath: pip install -e '.[test]'") from exc
+        raise NodesimError("benchmark fixedpoint_vs_fxpmath needs fxpmath: pip install -e '.[bench]'") from exc
     rng = np.random.default_rng(0)
     fmt = QFormat(32, 16)
     x, y = rng.uniform(-200.0, 200.0, (2, N_ELEMENTS))  # some products leave Q16.16 and saturate
@@ -97,6 +96,10 @@ def _batched_run(kind: str, cfg: YawFilterConfig, rate, ref, var) -> None:
 
 
 def _filterpy_run(cfg: YawFilterConfig, rate, ref, var) -> None:
+    try:
+        from filterpy.kalman import KalmanFilter  # a bench dependency (pyproject [bench] extra), not a runtime one
+    except ImportError as exc:
+        raise NodesimError("benchmark batched_filter_vs_filterpy needs filterpy: pip install -e '.[bench]'") from exc
     for r in range(rate.shape[1]):
         kf = KalmanFilter(dim_x=2, dim_z=1)
         kf.F, kf.Q, kf.H, kf.P, kf.R = cfg.phi, cfg.q_d, np.array([[1.0, 0.0]]), cfg.p0.copy(), np.array([[var]])

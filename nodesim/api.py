@@ -24,10 +24,12 @@ import numpy as np
 
 from nodesim.errors import NodesimError
 from nodesim.io.rundir import (
+    check_empty_dir,
     default_run_dir,
     git_commit,
     host_info,
     package_version,
+    replace_dir,
     write_csv,
     write_json,
     write_png,
@@ -195,16 +197,26 @@ class Run:
                                   f"{self.scenario.name}: realization 0, tool {u.model.name}")
 
     # -- files ----------------------------------------------------------------------------------------------
-    def save(self, directory: str | Path | None = None, *, plots: bool = True) -> Path:
+    def save(self, directory: str | Path | None = None, *, plots: bool = True, force: bool = False) -> Path:
         """Write the run directory (what ``nodesim run`` writes; default ``runs/<name>-<UTC timestamp>``).
 
         Tables first, then the plot, then ``summary.json`` and ``manifest.json`` (a directory with a summary
-        is a finished run).  A directory that already holds a run's files is refused, so runs never mix.
+        is a finished run).  A non-empty directory is refused, so runs never mix; with ``force=True`` the run
+        is written into a fresh sibling directory that then replaces it (:func:`nodesim.io.rundir.replace_dir`),
+        so it holds only this run.
         """
         t0 = time.perf_counter()
         out = Path(directory) if directory is not None else default_run_dir(
             self.scenario.name, datetime.fromisoformat(self.manifest["started_utc"]))
-        check_unused(out)
+        if force:
+            with replace_dir(out) as stage:
+                self._write(stage, plots, t0)
+        else:
+            check_unused(out)
+            self._write(out, plots, t0)
+        return out
+
+    def _write(self, out: Path, plots: bool, t0: float) -> None:
         for name, columns in self._tables.items():
             write_csv(out / f"{name}.csv", columns)
         if plots:
@@ -214,14 +226,11 @@ class Run:
         self.manifest["wall_time_s"] = timing["wall_s"] + timing["save_s"]
         write_json(out / "summary.json", self.summary)
         write_json(out / "manifest.json", self.manifest)
-        return out
 
 
 def check_unused(directory: str | Path) -> None:
-    """Refuse a directory that already holds a run's files (runs never mix; nothing is overwritten)."""
-    used = [name for name in RUN_FILES if (Path(directory) / name).exists()]
-    if used:
-        raise NodesimError(f"{directory}: already holds a run ({', '.join(used)}); give a new directory")
+    """Refuse an existing non-empty directory (runs never mix; nothing is overwritten without ``force``)."""
+    check_empty_dir(directory, "run", RUN_FILES)
 
 
 def load_run(directory: str | Path) -> Run:

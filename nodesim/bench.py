@@ -29,7 +29,11 @@ def default_bench_dir() -> Path:
 def discover(bench_dir: Path) -> list[tuple[str, Callable[[], dict]]]:
     """(module:function, callable) for every benchmark in ``bench_dir``, in file then list order."""
     if not bench_dir.is_dir():
-        raise NodesimError(f"benchmark folder {bench_dir} not found (run from the repository root or pass --dir)")
+        raise NodesimError(
+            f"benchmark folder {bench_dir} not found: the benchmarks (benchmarks/bench_*.py) belong to a source "
+            "checkout and are not part of an installed wheel; run `nodesim bench` from the repository root "
+            "(or pass --dir BENCHMARKS_FOLDER) with the bench extra installed: pip install -e '.[bench]'"
+        )
     found = []
     for path in sorted(bench_dir.glob("bench_*.py")):
         spec = importlib.util.spec_from_file_location(f"nodesim_bench_{path.stem}", path)
@@ -69,9 +73,10 @@ def chain_batched_vs_loop(base, realizations: int, prefix: str, repeat_loop: int
 def run_benchmarks(bench_dir: Path, only: str | None = None) -> dict:
     """Run the benchmarks (optionally those whose name contains ``only``) and merge their figures."""
     figures: dict = {}
-    for name, fn in discover(bench_dir):
-        if only and only not in name:
-            continue
+    selected = [(name, fn) for name, fn in discover(bench_dir) if not only or only in name]
+    if not selected:
+        raise NodesimError(f"no benchmark in {bench_dir} has a name containing {only!r} (names are file:function)")
+    for name, fn in selected:
         result = fn()
         clash = set(result) & set(figures)
         if clash:

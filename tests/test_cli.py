@@ -19,6 +19,8 @@ OPTION_OF = {
     "report": "RUN_OR_CAMPAIGN_DIR",
     "validate": "--json",
     "bench": "--json",
+    "export": "--to",
+    "scenario": "--schema",
 }
 
 
@@ -106,3 +108,23 @@ def test_bench_json_contract(tmp_path, capsys):
 def test_bench_missing_folder_is_a_clear_error(tmp_path, capsys):
     assert main(["bench", "--dir", str(tmp_path / "none")]) == 2
     assert "benchmark folder" in capsys.readouterr().err
+
+
+def test_bench_only_without_a_match_exits_2(tmp_path, capsys):
+    bench_dir = tmp_path / "benchmarks"
+    bench_dir.mkdir()
+    (bench_dir / "bench_toy.py").write_text("def toy():\n    return {'toy_s': 1.0}\nBENCHMARKS = [toy]\n")
+    assert main(["bench", "--dir", str(bench_dir), "--only", "NO_MATCH"]) == 2
+    assert "'NO_MATCH'" in capsys.readouterr().err
+    assert main(["bench", "--dir", str(bench_dir), "--only", "toy"]) == 0
+
+
+def test_bench_from_an_installed_wheel_says_what_it_needs(tmp_path, capsys, monkeypatch):
+    """Outside a source checkout (no ./benchmarks, none beside the package) the error names the checkout and extra."""
+    import nodesim.bench as bench
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(bench, "__file__", str(tmp_path / "site-packages" / "nodesim" / "bench.py"))
+    assert main(["bench"]) == 2
+    err = capsys.readouterr().err
+    assert "source checkout" in err and "[bench]" in err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -15,11 +16,13 @@ def register(sub) -> None:
     )
     p.add_argument("scenario", type=Path, help="scenario TOML file")
     p.add_argument("--out", type=Path, default=None, help="run directory (default runs/<name>-<UTC timestamp>)")
+    p.add_argument("--force", action="store_true", help="replace a non-empty --out directory (written aside, then swapped in)")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's root seed")
     p.add_argument("--realizations", type=int, default=None, help="override simulation.realizations")
     p.add_argument("--dry-run", action="store_true", help="validate and print the resolved scenario; write nothing")
     p.add_argument("--record", type=Path, default=None, help="also write realization 0 as a replay log (.csv or .parquet; nodesim replay reads it)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--all", action="store_true", help="print every summary key (default: the headline keys and the bottom node)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown only on a terminal anyway)")
     p.set_defaults(func=run)
 
@@ -43,10 +46,11 @@ def run(args) -> int:
     from nodesim.sweep.progress import SimulatedTimeProgress
 
     out = args.out if args.out is not None else default_run_dir(scenario.name)
-    check_unused(out)  # before simulating: a used directory is refused at once
+    if not args.force:
+        check_unused(out)  # before simulating: a used directory is refused at once
     with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
         result = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
-    out = result.save(out)
+    out = result.save(out, force=args.force)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 
@@ -54,18 +58,37 @@ def run(args) -> int:
     if args.json:
         sys.stdout.write(dumps_json(result.summary).decode())
     else:
-        print_summary(result.summary, out)
+        print_summary(result.summary, out, every_key=args.all)
     return 0
 
 
-def print_summary(summary: dict, out_dir: Path) -> None:
-    rows = [(k, v) for k, v in summary.items() if k != "timing"]
+PER_NODE = re.compile(r"^(node|hop)(\d+)_")
+
+
+def shown_keys(summary: dict, every_key: bool = False) -> list[str]:
+    """The summary keys the terminal table shows: all of them with ``every_key``; else the chain-wide keys
+    (headline metrics are those of the bottom node) and the bottom node's own ``node<N>_*`` keys, so a long
+    chain does not print hundreds of rows (summary.json always holds every key)."""
+    keys = [k for k in summary if k != "timing"]
+    if every_key:
+        return keys
+    nodes = [int(m.group(2)) for k in keys if (m := PER_NODE.match(k)) and m.group(1) == "node"]
+    bottom = max(nodes, default=None)
+    return [k for k in keys if not (m := PER_NODE.match(k)) or (m.group(1) == "node" and int(m.group(2)) == bottom)]
+
+
+def print_summary(summary: dict, out_dir: Path, every_key: bool = False) -> None:
+    keys = shown_keys(summary, every_key)
+    rows = [(k, summary[k]) for k in keys]
     width = max(len(k) for k, _ in rows)
     print(f"{'metric':<{width}}  value")
     print(f"{'-' * width}  {'-' * 12}")
     for key, value in rows:
         shown = f"{value:.4g}" if isinstance(value, float) else ("n/a" if value is None else str(value))
         print(f"{key:<{width}}  {shown}")
+    hidden = len(summary) - 1 - len(keys)
+    if hidden > 0:
+        print(f"({hidden} per-node and per-hop keys not shown: --all prints them; every key is in summary.json)")
     timing = summary["timing"]
     print(f"run directory: {out_dir}  (wall time {timing['wall_s'] + timing.get('save_s', 0.0):.2f} s)")
 

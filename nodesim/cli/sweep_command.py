@@ -14,7 +14,8 @@ def register(sub) -> None:
         help="parameter sweeps and Monte Carlo campaigns (local pool or Dask)",
         description=(
             "Run every (point, seed) of a sweep file and store one row per run in DIR/results.parquet "
-            "(load it with pandas.read_parquet). Same sweep and seeds give the same table on any executor."
+            "(load it with pandas.read_parquet). Same sweep and seeds give the same table on any executor. "
+            "Exit status 1 when any run failed (the table is still written), 2 on a usage error."
         ),
     )
     p.add_argument("sweep", type=Path, metavar="SWEEP.toml", help="base scenario plus axes")
@@ -59,6 +60,10 @@ def run(args) -> int:
         for key, value in summary.items():
             print(f"{key:<22} {value}")
         print(f"load it with: pandas.read_parquet('{summary['results']}')")
+    if result.failed:
+        sys.stderr.write(f"nodesim sweep: {result.failed} of {result.planned} runs failed (status and error columns "
+                         f"of {summary['results']})\n")
+        return 1
     return 0
 
 

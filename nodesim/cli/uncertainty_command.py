@@ -20,8 +20,8 @@ def register(sub) -> None:
     )
     p.add_argument(
         "survey",
-        metavar="SURVEY.csv",
-        help="survey with columns md_m,inc_deg,azi_deg and optional time_s, sigma_inc_deg, sigma_azi_deg (per-station 1-sigma errors added as random terms)",
+        metavar="SURVEY.csv|SURVEY.las",
+        help="survey CSV with columns md_m (or md_ft),inc_deg,azi_deg, or a LAS file with INC and AZI curves; CSV columns and optional time_s, sigma_inc_deg, sigma_azi_deg (per-station 1-sigma errors added as random terms)",
     )
     p.add_argument(
         "--tool", required=True, help="tool model: dip, vn100t, stim300, ipst_rqh, mpu6500, mpu6500_filtered, or a tool .toml"
@@ -38,6 +38,8 @@ def register(sub) -> None:
     p.add_argument(
         "--sigma", choices=("1", "2", "95"), default="1", help="reported level: 1 or 2 sigma, or 95 %% per axis (default 1)"
     )
+    p.add_argument("--units", choices=("m", "ft"), default=None,
+                   help="depth unit of the input: ft for a CSV with an md_ft column or a LAS file without a depth unit (output stays in metres)")
     p.add_argument("--method", choices=("minimum_curvature", "balanced_tangential"), default="minimum_curvature")
     p.set_defaults(func=run)
 
@@ -45,10 +47,11 @@ def register(sub) -> None:
 def run(args) -> int:
     import numpy as np
 
-    from nodesim.ground import load_tool, propagate, read_survey_csv
+    from nodesim.ground import load_tool, propagate
+    from nodesim.ground.survey import read_survey_file
     from nodesim.ground.ellipsoid import confidence_scale, horizontal_ellipse, nev_to_hla
 
-    survey = read_survey_csv(Path(args.survey), args.seconds_per_station)
+    survey = read_survey_file(Path(args.survey), args.seconds_per_station, args.units)
     model = load_tool(args.tool)
     u = propagate(survey, model, method=args.method)
     model = u.model  # includes the survey's own sigma columns, if any

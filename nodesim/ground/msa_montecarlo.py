@@ -119,13 +119,14 @@ def final_positions(md_m, inc_rad, azi_rad) -> np.ndarray:
 
 
 def _progress(total: int, enabled: bool | None):
-    """A tqdm bar over replications when stdout is a terminal (or ``enabled`` is True), else None."""
-    show = sys.stdout.isatty() if enabled is None else enabled
+    """A tqdm bar over replications on stderr when stderr is a terminal (or ``enabled`` is True), else None;
+    stdout stays for results (``--json``)."""
+    show = sys.stderr.isatty() if enabled is None else enabled
     if not show:
         return None
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="rep", desc="magnetic Monte Carlo", file=sys.stdout)
+    return tqdm(total=total, unit="rep", desc="magnetic Monte Carlo", file=sys.stderr)
 
 
 def run_monte_carlo(

@@ -6,7 +6,14 @@ host), ``summary.json`` (flat headline metrics, :mod:`nodesim.chain.metrics`; ti
 CSV tables of :mod:`nodesim.chain.run_tables` and ``yaw_error.png``.
 
 Atomic writes: each file is written to a temporary file in the same directory and renamed into place, so
-an interrupted run never leaves a half-written file under its final name.
+an interrupted run never leaves a half-written file under its final name.  Files get the mode an ordinary
+``open()`` would give, 0o666 & ~umask (0644 under umask 022; ``mkstemp`` alone would leave 0600), and
+directories 0o777 & ~umask.
+
+Used directories: a run is written only into a missing or empty directory (:func:`check_empty_dir`); with
+``force`` it is written into a fresh sibling directory which is then swapped into place
+(:func:`replace_dir`: ``renameat2(RENAME_EXCHANGE)`` on Linux, two renames elsewhere), so the directory
+holds only the new run and an interrupted run leaves the old one whole.
 """
 
 from __future__ import annotations
@@ -17,21 +24,51 @@ import json
 import os
 import platform
 import subprocess
+import shutil
+import sys
 import tempfile
+from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Iterator
+
+from nodesim.errors import NodesimError
 
 if TYPE_CHECKING:
     import numpy as np
 
 
+def current_umask() -> int:
+    """The process umask (Linux: read from /proc/self/status; elsewhere set and restored at once)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+def file_mode() -> int:
+    """Mode of a newly created file, as ``open()`` gives it: 0o666 & ~umask."""
+    return 0o666 & ~current_umask()
+
+
+def dir_mode() -> int:
+    """Mode of a newly created directory, as ``mkdir`` gives it: 0o777 & ~umask."""
+    return 0o777 & ~current_umask()
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and ``os.replace``."""
+    """Write ``data`` to ``path`` through a temporary file (mode 0o666 & ~umask) and ``os.replace``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, file_mode())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
@@ -51,11 +88,78 @@ def atomic_write_with(path: Path, writer: Callable[[Path], None]) -> None:
     os.close(fd)
     try:
         writer(Path(tmp))
+        os.chmod(tmp, file_mode())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def check_empty_dir(directory: str | Path, what: str = "run", marker_files: tuple[str, ...] = ()) -> None:
+    """Refuse an existing non-directory or a non-empty directory (one line naming what is there and --force)."""
+    d = Path(directory)
+    if d.exists() and not d.is_dir():
+        raise NodesimError(f"{d}: exists and is not a directory; give a directory for the {what}")
+    if not d.is_dir():
+        return
+    entries = sorted(p.name for p in d.iterdir())
+    if not entries:
+        return
+    held = [name for name in marker_files if name in entries]
+    shown = ", ".join((held or entries)[:6]) + (", ..." if len(held or entries) > 6 else "")
+    state = f"already holds a {what} ({shown})" if held else f"is not empty ({shown})"
+    raise NodesimError(f"{d}: {state}; give a new directory, or pass --force to replace it")
+
+
+@contextmanager
+def replace_dir(directory: str | Path) -> Iterator[Path]:
+    """Yield a fresh sibling directory of ``directory``; when the block succeeds, swap it into place.
+
+    The stage is ``.<name>.new-XXXX`` beside ``directory`` (same file system, so the swap is a rename).
+    An existing ``directory`` is exchanged atomically with the stage (Linux ``renameat2`` with
+    ``RENAME_EXCHANGE``; elsewhere renamed aside first) and then deleted.  If the block fails, the stage is
+    deleted and ``directory`` is untouched.
+    """
+    d = Path(directory)
+    if d.exists() and not d.is_dir():
+        raise NodesimError(f"{d}: exists and is not a directory")
+    d.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{d.name}.new-", dir=d.parent))
+    try:
+        os.chmod(stage, dir_mode())
+        yield stage
+        if not d.exists():
+            os.rename(stage, d)
+            return
+        if not _exchange(stage, d):
+            aside = Path(tempfile.mkdtemp(prefix=f".{d.name}.old-", dir=d.parent))
+            os.rename(d, aside / "old")
+            os.rename(stage, d)
+            stage = aside
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    shutil.rmtree(stage, ignore_errors=True)  # the old directory, now under the stage's name
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Atomically exchange two paths (Linux renameat2 RENAME_EXCHANGE); False where that is unavailable."""
+    if not sys.platform.startswith("linux"):
+        return False
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+        return True
+    return False
 
 
 def write_png(path: Path, fig, dpi: int = 110) -> None:

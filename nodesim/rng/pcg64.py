@@ -12,8 +12,8 @@ one compiled call draws from all of them.  The numbers are numpy's, bit for bit 
   state: rotr64(hi ^ lo, hi >> 58);
 * ``random()``: (next64 >> 11) x 2^-53;
 * ``standard_normal()``: the 256-strip ziggurat of numpy's ``random_standard_normal``
-  (numpy/random/src/distributions/distributions.c), with numpy's tables (the copies numba ships for its own
-  port, ``numba.np.random._constants``).
+  (numpy/random/src/distributions/distributions.c), with numpy's tables (ziggurat_constants.h), vendored in
+  :mod:`nodesim.rng.ziggurat_tables` (no private module of numpy or numba is imported).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types, uint64
 from numba.extending import intrinsic
-from numba.np.random._constants import (
+from nodesim.rng.ziggurat_tables import (
     fi_double,
     ki_double,
     wi_double,

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from nodesim.errors import NodesimError
-from nodesim.io.csv_input import read_header_and_rows
+from nodesim.io.csv_input import read_table
 
 MAX_CONDITION = 1e8
 AXIS_TOLERANCE = 1e-6
@@ -188,19 +188,19 @@ POSITION_COLUMNS = ("true_x", "true_y", "true_z", "meas_x", "meas_y", "meas_z")
 def read_positions(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(true (N,3), meas (N,3)) from a calibration CSV; errors name the file, row and column."""
     path = Path(path)
-    header, data = read_header_and_rows(path, POSITION_COLUMNS, "calibration data")
+    header, data, lines = read_table(path, POSITION_COLUMNS, "calibration data")
     idx = [header.index(c) for c in POSITION_COLUMNS]
     values = np.empty((len(data), 6))
-    for r, row in enumerate(data, start=2):
+    for r, (line, row) in enumerate(zip(lines, data)):
         if len(row) != len(header):
-            raise NodesimError(f"{path}: row {r} has {len(row)} fields, the header has {len(header)}")
+            raise NodesimError(f"{path}, line {line}: {len(row)} fields, the header has {len(header)}")
         for k, (i, name) in enumerate(zip(idx, POSITION_COLUMNS)):
             try:
-                values[r - 2, k] = float(row[i])
+                values[r, k] = float(row[i])
             except ValueError:
-                raise NodesimError(f"{path}: row {r}, column {name}: {row[i]!r} is not a number") from None
-            if not np.isfinite(values[r - 2, k]):
-                raise NodesimError(f"{path}: row {r}, column {name}: {row[i]!r} is not finite")
+                raise NodesimError(f"{path}, line {line}, column {name}: {row[i]!r} is not a number") from None
+            if not np.isfinite(values[r, k]):
+                raise NodesimError(f"{path}, line {line}, column {name}: {row[i]!r} is not finite")
     if values.shape[0] == 0:
         raise NodesimError(f"{path}: no data rows")
     return values[:, :3], values[:, 3:]

@@ -70,6 +70,8 @@ def run_campaign(
     """Run (or resume) the campaign of ``spec`` in ``out_dir``; returns counts and the consolidated table."""
     out = Path(out_dir)
     old = read_manifest(out)
+    if old is None and resume:
+        raise NodesimError(f"{out}: no campaign to resume (no {MANIFEST}); drop --resume to start a new one")
     if old is not None and not resume:
         raise NodesimError(f"{out}: already holds a campaign; pass --resume to continue it, or choose another --out")
     if old is not None and old.get("sweep", {}).get("spec_sha256") != spec.spec_hash:

@@ -9,7 +9,8 @@ sorts them), keep a bounded number of runs in flight (2 per worker) and share on
   attempt (a dying local pool takes down every run in flight on it, so each of those is charged).  After
   ``task.max_attempts`` attempts the run is recorded as failed with the last error and the campaign goes on.
 
-The local pool uses the ``forkserver`` start method where available (children forked from a clean server
+The local pool dies with its driver: :mod:`nodesim.sweep.watchdog` kills its processes and removes its
+temporary directory when the driver exits, even by SIGKILL.  The local pool uses the ``forkserver`` start method where available (children forked from a clean server
 process that has pre-imported the simulator, so no threads or locks of the driver are inherited) and
 ``spawn`` elsewhere.  Results do not depend on the executor: every run is seeded by its task alone.
 """
@@ -65,6 +66,13 @@ class LocalExecutor:
         self._pool: ProcessPoolExecutor | None = None
 
     def _new_pool(self) -> ProcessPoolExecutor:
+        # before any pool process exists: the watchdog kills them and removes multiprocessing's temporary
+        # directory (the fork server's socket) if this driver dies without shutting the pool down
+        from multiprocessing.util import get_temp_dir
+
+        from nodesim.sweep import watchdog
+
+        watchdog.start([get_temp_dir()])
         methods = mp.get_all_start_methods()
         if "forkserver" in methods:
             ctx = mp.get_context("forkserver")
@@ -138,8 +146,8 @@ class DaskExecutor:
     def __init__(self, scheduler: str | None = None, workers: int | None = None, processes: bool = True):
         try:
             from distributed import Client, LocalCluster
-        except ImportError as err:  # pragma: no cover - dask is a runtime dependency
-            raise NodesimError(f"--executor dask needs dask[distributed] ({err})") from None
+        except ImportError as err:  # dask is the optional [dask] extra
+            raise NodesimError(f"--executor dask needs dask[distributed]: pip install 'nodesim[dask]' ({err})") from None
         if workers is not None and not 1 <= workers <= 4096:
             raise NodesimError(f"--workers must be in [1, 4096] (got {workers})")
         self.scheduler = scheduler
@@ -150,13 +158,25 @@ class DaskExecutor:
             except (OSError, TimeoutError) as err:
                 raise NodesimError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})") from None
         else:
-            self.cluster = LocalCluster(
-                n_workers=workers or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=processes,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
+            import tempfile
+
+            from nodesim.sweep import watchdog
+
+            # the workers' scratch space in a directory of our own, removed on close (and by the watchdog
+            # if this driver dies), instead of a dask-scratch-space left in the temp directory
+            self._scratch = tempfile.mkdtemp(prefix="nodesim-dask-")
+            watchdog.start([self._scratch])
+            import dask
+
+            with dask.config.set({"temporary-directory": self._scratch}):  # dask's own dask-scratch-space too
+                self.cluster = LocalCluster(
+                    n_workers=workers or os.cpu_count() or 1,
+                    threads_per_worker=1,
+                    processes=processes,
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                    local_directory=self._scratch,
+                )
             self.client = Client(self.cluster)
 
     @property
@@ -202,6 +222,9 @@ class DaskExecutor:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+            import shutil
+
+            shutil.rmtree(self._scratch, ignore_errors=True)
 
     def __enter__(self):
         return self

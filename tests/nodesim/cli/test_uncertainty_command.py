@@ -50,11 +50,15 @@ def test_sigma_95_and_time_column(tmp_path, capsys):
 @pytest.mark.parametrize(
     "text, args, pattern",
     [
-        ("md_m,inc_deg,azi_deg\n0,0,0\n10,5,0\n5,5,0\n", [], "row 3: md_m 5 is decreasing"),
-        ("md_m,inc_deg,azi_deg\n0,0,0\n10,5,0\n10,5,0\n", [], "row 3: md_m 10 is duplicate"),
-        ("md_m,inc_deg,azi_deg\n0,0,0\n10,190,0\n", [], r"row 2: inc_deg 190 is outside \[0, 180\]"),
-        ("md_m,inc_deg,azi_deg\n0,0,0\n10,nan,0\n", [], "row 2: inc_deg is not a finite number"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n10,5,0\n5,5,0\n", [], "line 4: md_m 5 is decreasing"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n10,5,0\n10,5,0\n", [], "line 4: md_m 10 is duplicate"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n10,190,0\n", [], r"line 3: inc_deg 190 is outside \[0, 180\]"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n10,nan,0\n", [], "line 3: inc_deg is not a finite number"),
         ("md_m,inc_deg,azi_deg\n0,0,0\n10,5,0\n", ["--tool", "gyro9000"], "unknown tool 'gyro9000'"),
+        # "line N" is the file's line as an editor numbers it: comments and blank lines count
+        ("# well A\n\nmd_m,inc_deg,azi_deg\n# tie-in\n0,0,0\n10,5,0\n5,5,0\n", [], "line 7: md_m 5 is decreasing"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n10,5,-400\n", [], r"line 3: azi_deg -400 is outside \[0, 360\]"),
+        ("md_m,inc_deg,azi_deg,sigma_azimuth\n0,0,0,1\n10,5,0,1\n", [], r"line 1: unknown column\(s\) \['sigma_azimuth'\]"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(tmp_path, text, args, pattern, capsys):

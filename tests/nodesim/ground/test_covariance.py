@@ -180,7 +180,7 @@ def test_survey_sigmas_enter_as_random_direct_terms():
     np.testing.assert_allclose(
         propagate(varying, ErrorModel("none", ())).cov_nev_m2, propagate_pairwise(varying, ErrorModel("none", ())), rtol=1e-12
     )
-    with pytest.raises(NodesimError, match="row 2: sigma_azi_deg -1 must be finite and >= 0"):
+    with pytest.raises(NodesimError, match="station 2: sigma_azi_deg -1 must be finite and >= 0"):
         make_survey(md, inc, azi, sigma_azi_deg=[0, -1, 0, 0, 0])
     with pytest.raises(NodesimError, match="sigma_inc_deg has 2 values for 5 stations"):
         make_survey(md, inc, azi, sigma_inc_deg=[0, 1])

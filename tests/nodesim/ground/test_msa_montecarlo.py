@@ -103,7 +103,8 @@ def test_no_progress_output_when_not_a_tty(capsys):
 
 def test_progress_bar_when_asked(capsys):
     run_monte_carlo(trajectory("hv1"), REF, TRUTH, MonteCarloConfig(replications=10, chunk=5), progress=True)
-    assert "10/10" in capsys.readouterr().out
+    out = capsys.readouterr()
+    assert "10/10" in out.err and out.out == ""  # the bar is on stderr: stdout stays for results
 
 
 @pytest.mark.parametrize(

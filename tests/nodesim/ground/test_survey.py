@@ -10,12 +10,12 @@ from nodesim.ground.survey import make_survey, read_survey_csv
 @pytest.mark.parametrize(
     "md, inc, azi, pattern",
     [
-        ([0, 10, 5], [0, 1, 2], [0, 0, 0], r"row 3: md_m 5 is decreasing"),
-        ([0, 10, 10], [0, 1, 2], [0, 0, 0], r"row 3: md_m 10 is duplicate"),
-        ([0, 10, 20], [0, 181, 2], [0, 0, 0], r"row 2: inc_deg 181 is outside \[0, 180\]"),
-        ([0, 10, 20], [0, -1, 2], [0, 0, 0], r"row 2: inc_deg -1 is outside"),
-        ([0, np.nan, 20], [0, 1, 2], [0, 0, 0], r"row 2: md_m is not a finite number"),
-        ([0, 10, 20], [0, 1, 2], [0, np.inf, 0], r"row 2: azi_deg is not a finite number"),
+        ([0, 10, 5], [0, 1, 2], [0, 0, 0], r"station 3: md_m 5 is decreasing"),
+        ([0, 10, 10], [0, 1, 2], [0, 0, 0], r"station 3: md_m 10 is duplicate"),
+        ([0, 10, 20], [0, 181, 2], [0, 0, 0], r"station 2: inc_deg 181 is outside \[0, 180\]"),
+        ([0, 10, 20], [0, -1, 2], [0, 0, 0], r"station 2: inc_deg -1 is outside"),
+        ([0, np.nan, 20], [0, 1, 2], [0, 0, 0], r"station 2: md_m is not a finite number"),
+        ([0, 10, 20], [0, 1, 2], [0, np.inf, 0], r"station 2: azi_deg is not a finite number"),
         ([0], [0], [0], r"at least 2 stations"),
     ],
 )
@@ -41,9 +41,9 @@ def test_csv_reader(tmp_path):
     "text, pattern",
     [
         ("md,inc_deg,azi_deg\n0,0,0\n", r"missing column\(s\) \['md_m'\]"),
-        ("md_m,inc_deg,azi_deg\n0,0,0\n2,x,0\n", r"row 2: column inc_deg: 'x' is not a number"),
-        ("md_m,inc_deg,azi_deg\n0,0,0\n2,1\n", r"row 2: 2 fields"),
-        ("md_m,inc_deg,azi_deg\n0,0,0\n2,1,0\n1,1,0\n", r"row 3: md_m 1 is decreasing"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n2,x,0\n", r"line 3: column inc_deg: 'x' is not a number"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n2,1\n", r"line 3: 2 fields"),
+        ("md_m,inc_deg,azi_deg\n0,0,0\n2,1,0\n1,1,0\n", r"line 4: md_m 1 is decreasing"),
         ("", r"empty survey file"),
     ],
 )

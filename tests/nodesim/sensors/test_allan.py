@@ -74,3 +74,18 @@ def test_plot_writes_png(tmp_path):
     curve = overlapping_adev(np.random.default_rng(0).standard_normal(2000), 0.1)
     plot_adev({"white": curve}, tmp_path / "adev.png")
     assert (tmp_path / "adev.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_overlapping_adev_equals_allantools_oadev():
+    """allantools (an independent implementation, pyproject [test] extra) gives the same overlapping Allan
+    deviation of a white + random-walk rate series at every cluster size (IEEE Std 952, eq. of oadev)."""
+    allantools = pytest.importorskip("allantools")
+    rng = np.random.default_rng(5)
+    dt_s = 0.01
+    rate = rng.normal(0.0, 1.0, 20_000) + np.cumsum(rng.normal(0.0, 0.002, 20_000))
+    ours = overlapping_adev(rate, dt_s)
+    taus, adev, _, _ = allantools.oadev(rate, rate=1.0 / dt_s, data_type="freq", taus=ours.tau_s)
+    # allantools stops one cluster size earlier (it needs m < N/2 where eq V.29 allows m = N/2)
+    common = np.isin(np.round(ours.tau_s / dt_s), np.round(taus / dt_s))
+    assert common.sum() == taus.size >= ours.tau_s.size - 1
+    assert np.allclose(adev, ours.adev[common], rtol=1e-9)

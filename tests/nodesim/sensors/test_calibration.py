@@ -127,8 +127,8 @@ def test_cli_json_contract(tmp_path, capsys):
     "text,match",
     [
         ("true_x,true_y,meas_x,meas_y,meas_z\n1,0,1,0,0\n", "missing column.*true_z"),
-        ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,abc,0,0\n", "row 2, column meas_x: 'abc'"),
-        ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,1,0\n", "row 2 has 5 fields"),
+        ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,abc,0,0\n", "line 2, column meas_x: 'abc'"),
+        ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,1,0\n", "line 2: 5 fields"),
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n", "no data rows"),
         ("", "empty calibration data file"),
         ("true_x,true_y,true_z,meas_x,meas_y,meas_z\n1,0,0,1,0,0\n0,1,0,0,1,0\n0,0,1,0,0,1\n", "need >= 12"),

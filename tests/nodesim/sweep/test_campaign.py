@@ -262,3 +262,24 @@ def test_a_kept_run_directory_is_replaced_when_its_task_runs_again(make_sweep, t
     (Path(task.keep_dir) / "summary.json").write_text("{}")  # an earlier, different attempt
     assert run_point(task) == first
     assert json.loads((Path(task.keep_dir) / "summary.json").read_text())["scenario"] == "short"
+
+
+def test_cli_sweep_with_a_failed_run_exits_1_and_still_writes_the_table(make_sweep, tmp_path, capsys):
+    from nodesim.cli.main import main
+
+    sweep = make_sweep('[[axis]]\nkey = "simulation.realizations"\nvalues = [1, 0]\n')
+    out = tmp_path / "c"
+    assert main(["sweep", str(sweep), "--out", str(out), "--workers", "1", "--quiet"]) == 1
+    assert "1 of 2 runs failed" in capsys.readouterr().err
+    df = pd.read_parquet(out / "results.parquet")
+    assert sorted(df["status"]) == ["failed", "ok"]
+
+
+def test_cli_resume_of_a_missing_campaign_is_an_error(make_sweep, tmp_path, capsys):
+    from nodesim.cli.main import main
+
+    ok = make_sweep("seeds = 1\n")
+    missing = tmp_path / "never-started"
+    assert main(["sweep", str(ok), "--out", str(missing), "--resume"]) == 2
+    assert "no campaign to resume" in capsys.readouterr().err
+    assert not missing.exists()
