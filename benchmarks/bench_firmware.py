@@ -30,7 +30,8 @@ from numba import njit
 
 from firmware_model import fixedpoint as fp
 from firmware_model.fixedpoint import Overflow, QFormat, Rounding
-from firmware_model.yaw_filter import YawFilterConfig, make_yaw_filter, wrap_pi
+from firmware_model.filter_factory import make_yaw_filter
+from firmware_model.yaw_filter import YawFilterConfig, wrap_pi
 from nodesim.bench import best_time_s
 from firmware_model import fixed_kernel as fk
 from nodesim.errors import NodesimError
