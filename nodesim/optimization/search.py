@@ -7,8 +7,8 @@ not by the number of workers, and every trial is seeded by the common root seed 
 seed and trial count the study is the same on any executor and any number of workers.
 
 Samplers: NSGA-II (multi-objective; population = ``batch``), TPE (single objective) or random; constraints go
-to the sampler as violations v_i = max(value - max, min - value) (feasible when every v_i <= 0; Optuna's
-``constraints_func``, Deb's constrained domination in NSGA-II).
+to the sampler as violations v_i = max(value - max, min - value) (feasible when every v_i <= 0;
+``Trial.set_constraint``, read by NSGA-II's constrained domination and TPE's feasibility weighting).
 
 Storage: Optuna's journal file ``DIR/study.journal``, appended as each trial is asked and told.  ``--resume``
 reopens it: finished trials (complete or failed) are kept, trials that were asked but not told (a SIGINT or a
@@ -89,18 +89,13 @@ def _sampler(problem: Problem, offset: int):
     import optuna
 
     seed = problem.sampler_seed + offset
-    constraints = _constraints_of if problem.constraints else None
     if problem.sampler == "nsga2":
         if problem.batch < 2:
             raise NodesimError(f"{problem.source}: sampler 'nsga2' needs batch >= 2 (its population size)")
-        return optuna.samplers.NSGAIISampler(population_size=problem.batch, seed=seed, constraints_func=constraints)
+        return optuna.samplers.NSGAIISampler(population_size=problem.batch, seed=seed)
     if problem.sampler == "tpe":
-        return optuna.samplers.TPESampler(seed=seed, constraints_func=constraints, n_startup_trials=max(problem.batch, 8))
+        return optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(problem.batch, 8))
     return optuna.samplers.RandomSampler(seed=seed)
-
-
-def _constraints_of(frozen) -> list[float]:
-    return list(frozen.user_attrs.get("violations_clipped", []))
 
 
 def open_study(problem: Problem, directory: Path, offset: int = 0, create: bool = True):
@@ -120,15 +115,32 @@ def open_study(problem: Problem, directory: Path, offset: int = 0, create: bool 
     )
 
 
-def _tell(study, problem: Problem, number: int, trial_id: int, rec) -> None:
+def _point_key(params: dict) -> str:
+    return dumps_json(sorted(params.items())).decode()
+
+
+def _record_of(frozen):
+    """A RunRecord rebuilt from a told trial's stored attributes (reuse of its result on resume)."""
+    from nodesim.sweep.tasks import RunRecord
+
+    run = frozen.user_attrs["run"]
+    metrics = {k: (math.nan if v is None else v) for k, v in frozen.user_attrs["metrics"].items()}
+    return RunRecord(f"t{frozen.number:05d}", frozen.number, 0, 0, tuple(frozen.params.items()), run["status"], metrics,
+                     run["error"], run["attempts"], run["wall_s"], run["worker"])
+
+
+def _tell(study, problem: Problem, number: int, trial_id: int, rec, reused: bool = False) -> None:
     from optuna.trial import Trial, TrialState
 
     metrics = {k: (None if v != v else float(v)) for k, v in rec.metrics.items()}
     violations = [c.violation(rec.metrics.get(c.key, math.nan)) for c in problem.constraints]
     trial = Trial(study, trial_id)
     trial.set_user_attr("metrics", metrics)
+    if reused:  # same decision values as an earlier trial: its run's result, not a new evaluation
+        trial.set_user_attr("reused_from", rec.point)
     trial.set_user_attr("violations", [None if math.isinf(v) else v for v in violations])
-    trial.set_user_attr("violations_clipped", [min(v, BIG_VIOLATION) for v in violations])
+    for c, v in zip(problem.constraints, violations):  # what the samplers read (Optuna >= 5 trial constraints)
+        trial.set_constraint(c.key, min(v, BIG_VIOLATION))
     trial.set_user_attr("run", {"status": rec.status, "error": rec.error, "wall_s": rec.wall_s, "worker": rec.worker,
                                 "attempts": rec.attempts})
     values = [rec.metrics.get(o.key, math.nan) for o in problem.objectives]
@@ -193,6 +205,12 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
     study = open_study(problem, out, offset=len(existing))
     finished = sum(t.state in (TrialState.COMPLETE, TrialState.FAIL) for t in existing)
     pending = [t for t in existing if t.state == TrialState.RUNNING]
+    cache = {}  # decision values -> the record of the finished run that evaluated them
+    for t in existing:
+        run = t.user_attrs.get("run") or {}
+        if t.state == TrialState.COMPLETE and run.get("status") == "ok" and "reused_from" not in t.user_attrs:
+            cache[_point_key(dict(t.params))] = _record_of(t)
+    evaluations = 0
     progress = Progress(max(n_trials, finished), already_done=finished, quiet=quiet, stream=stream)
     t0 = time.perf_counter()
     try:
@@ -204,13 +222,23 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
             else:
                 asked = [study.ask() for _ in range(min(problem.batch, n_trials - finished))]
                 batch = [(t.number, t._trial_id, problem.suggest(t)) for t in asked]
-            tasks = [problem.task(number, params, payload=payload) for number, _, params in batch]
+            # common random numbers make a run a function of its decision values: a repeated point is not re-run
+            first: dict = {}
+            for number, _, params in batch:
+                first.setdefault(_point_key(params), number)
+            tasks = [problem.task(number, params, payload=payload) for number, _, params in batch
+                     if first[_point_key(params)] == number and _point_key(params) not in cache]
             records = {}
             for rec in executor.imap(run_fn, tasks):
                 records[rec.point] = rec
                 progress.update(rec.status == "ok")
-            for number, trial_id, _ in batch:
-                _tell(study, problem, number, trial_id, records[number])
+            for number, trial_id, params in batch:
+                key = _point_key(params)
+                if key not in cache and records.get(number) is not None and records[number].status == "ok":
+                    cache[key] = records[number]
+                rec = records.get(number) or cache.get(key) or records[first[key]]
+                _tell(study, problem, number, trial_id, rec, reused=rec.point != number)
+            evaluations += len(tasks)
             finished += len(batch)
             _check_keys(study)
     finally:
@@ -218,6 +246,7 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
         trials = study.get_trials(deepcopy=False)
         done = sum(t.state in (TrialState.COMPLETE, TrialState.FAIL) for t in trials)
         manifest.update(status="complete" if done >= n_trials else "interrupted", finished_trials=done,
+                        evaluations_this_session=evaluations,
                         finished_utc=datetime.now(timezone.utc).isoformat(), session_wall_s=time.perf_counter() - t0)
         write_json(out / MANIFEST, manifest)
     return manifest
