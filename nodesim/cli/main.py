@@ -14,7 +14,7 @@ import sys
 import nodesim
 from nodesim.errors import USER_ERRORS
 
-COMMANDS = ("run", "link", "uncertainty", "calibrate", "sweep", "replay", "report", "validate", "bench", "firmware")
+COMMANDS = ("run", "link", "uncertainty", "calibrate", "sweep", "optimize", "replay", "report", "validate", "bench", "firmware")
 
 
 def build_parser() -> argparse.ArgumentParser:

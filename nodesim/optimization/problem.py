@@ -419,3 +419,24 @@ def read_problem(opt: "str | Path | dict | Problem", base_dir: Path | None = Non
     if isinstance(opt, dict):
         return parse_problem(opt, "<optimize>", Path(base_dir or "."))
     return load_problem(opt)
+
+
+def read_problem_description(manifest: dict) -> Problem:
+    """The :class:`Problem` a study manifest describes (variables, objectives, constraints; base scenario)."""
+    opt = manifest["optimize"]
+    variables = tuple(
+        Variable(v["key"], tuple(v["choices"]) if v["type"] == "categorical" else None, v.get("low"), v.get("high"),
+                 v.get("step"), v.get("log", False), v["type"], tuple((v.get("when") or {}).items()))
+        for v in opt["variables"]
+    )
+    return Problem(
+        name=opt["name"], description=opt["description"], source=opt["source"],
+        base=parse_scenario(manifest["base_scenario"], source=opt["source"]), realizations=opt["realizations"],
+        seed=opt["seed"], trials=opt["trials"], batch=opt["batch"], sampler=opt["sampler"],
+        sampler_seed=opt["sampler_seed"], recommend=opt["recommend"], validation_seed=opt["validation_seed"],
+        validation_realizations=opt["validation_realizations"], record=tuple(opt["record"]),
+        overrides=tuple(opt["overrides"].items()), baseline=tuple(opt["baseline"].items()), variables=variables,
+        objectives=tuple(Objective(o["key"], o["direction"]) for o in opt["objectives"]),
+        constraints=tuple(Constraint(c["key"], c["max"], c["min"]) for c in opt["constraints"]),
+        spec_hash=opt["spec_sha256"],
+    )
