@@ -8,7 +8,7 @@ Files written into the study directory by :func:`finish`:
   min - value), +inf when the value is undefined), ``feasible`` (complete and every v <= 0), ``reused_from``
   (the earlier trial with the same decision values whose run result was reused: no new evaluation), ``status``,
   ``error``, ``wall_s``, ``worker`` (the run's; timing and placement, outside the determinism guarantee);
-- ``pareto.parquet``: the feasible, non-dominated trials (objectives of all feasible complete trials, each
+- ``pareto.parquet``: the feasible, non-dominated trials, each point once (objectives of all feasible complete trials, each
   turned into a minimisation by its sign), sorted by the first objective;
 - ``recommendation.json``: the recommended trial (feasible, best ``recommend`` objective; ties by the other
   objectives, then the trial number), its ready-to-paste TOML, its validation run with a fresh seed, the
@@ -84,7 +84,7 @@ def _minimised(df: pd.DataFrame, problem: Problem) -> np.ndarray:
 
 def pareto_frame(trials: pd.DataFrame, problem: Problem) -> pd.DataFrame:
     """Feasible trials that no other feasible trial dominates (<= in every objective, < in one)."""
-    feas = trials[trials["feasible"]].reset_index(drop=True)
+    feas = trials[trials["feasible"] & trials["reused_from"].isna()].reset_index(drop=True)  # no repeated points
     if not len(feas):
         return feas
     f = _minimised(feas, problem)

@@ -176,10 +176,12 @@ def test_pareto_front_constraint_violation_and_sensitivity_on_known_data():
         "trial": [0, 1, 2, 3, 4], "state": ["COMPLETE"] * 5,
         "schedule.update_s": [5.0, 10.0, 15.0, 20.0, 25.0], "schedule.timeout_s": [5.0, 5.0, 5.0, 5.0, 5.0],
         "energy_j": [1.0, 2.0, 2.0, 3.0, 0.5], "error_deg_p95": [0.15, 0.1, 0.12, 0.05, 0.3],
-        "feasible": [True, True, True, True, False],
+        "feasible": [True, True, True, True, False], "reused_from": pd.array([None] * 5, dtype="Int64"),
     })
     front = pareto_frame(t, problem)
     assert list(front["trial"]) == [0, 1, 3]  # 2 is dominated by 1, 4 is infeasible
+    t.loc[3, "reused_from"] = 1  # a repeated point (reused run) appears once on the front
+    assert list(pareto_frame(t, problem)["trial"]) == [0, 1]
     c = Constraint("x", max=0.3, min=0.1)
     assert c.violation(0.35) == pytest.approx(0.05) and c.violation(0.2) == pytest.approx(-0.1)
     assert c.violation(0.0) == pytest.approx(0.1) and c.violation(float("nan")) == float("inf")
