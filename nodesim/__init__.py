@@ -22,7 +22,11 @@ __all__ = ["NodesimError", "Run", "Scenario", "__version__", "load_run", "optimi
 
 
 def __getattr__(name: str):
-    if name in ("simulate", "load_run", "Run", "optimize"):
+    if name == "optimize":
+        from nodesim.optimization.driver import optimize
+
+        return optimize
+    if name in ("simulate", "load_run", "Run"):
         from nodesim import api
 
         return getattr(api, name)

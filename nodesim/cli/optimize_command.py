@@ -34,7 +34,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from nodesim.api import optimize
+    from nodesim.optimization.driver import optimize
     from nodesim.errors import NodesimError
 
     if args.resume and args.out is None:

@@ -94,7 +94,9 @@ def _sampler(problem: Problem, offset: int):
             raise NodesimError(f"{problem.source}: sampler 'nsga2' needs batch >= 2 (its population size)")
         return optuna.samplers.NSGAIISampler(population_size=problem.batch, seed=seed)
     if problem.sampler == "tpe":
-        return optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(problem.batch, 8))
+        # multivariate: the joint density of the variables (update window and timeout act together on energy
+        # and error); constant liar (Optuna's default) spreads the trials of one batch
+        return optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(problem.batch, 8), multivariate=True)
     return optuna.samplers.RandomSampler(seed=seed)
 
 
