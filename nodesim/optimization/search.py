@@ -85,6 +85,16 @@ def synthetic_trial(task: RunTask) -> dict:
     return _requested({"energy_j": energy, "error_deg_p95": error, "realizations": float(sc["simulation"]["realizations"])}, task)
 
 
+def table_trial(task: RunTask) -> dict:
+    """The stored result of an already-run point: ``payload['table']`` maps :func:`point_key` of the decision
+    values to the run's metrics.  With common random numbers a run is a function of its decision values, so
+    this equals re-running the point (benchmarks comparing samplers on one exhaustive grid)."""
+    key = point_key(dict(task.params))
+    if key not in task.payload["table"]:
+        raise NodesimError(f"point {key} is not in the stored table")
+    return _requested(task.payload["table"][key], task)
+
+
 def _sampler(problem: Problem, offset: int):
     import optuna
 
@@ -117,7 +127,8 @@ def open_study(problem: Problem, directory: Path, offset: int = 0, create: bool 
     )
 
 
-def _point_key(params: dict) -> str:
+def point_key(params: dict) -> str:
+    """Canonical text of a point's decision values (sorted keys, JSON)."""
     return dumps_json(sorted(params.items())).decode()
 
 
@@ -211,7 +222,7 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
     for t in existing:
         run = t.user_attrs.get("run") or {}
         if t.state == TrialState.COMPLETE and run.get("status") == "ok" and "reused_from" not in t.user_attrs:
-            cache[_point_key(dict(t.params))] = _record_of(t)
+            cache[point_key(dict(t.params))] = _record_of(t)
     evaluations = 0
     progress = Progress(max(n_trials, finished), already_done=finished, quiet=quiet, stream=stream)
     t0 = time.perf_counter()
@@ -227,15 +238,15 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
             # common random numbers make a run a function of its decision values: a repeated point is not re-run
             first: dict = {}
             for number, _, params in batch:
-                first.setdefault(_point_key(params), number)
+                first.setdefault(point_key(params), number)
             tasks = [problem.task(number, params, payload=payload) for number, _, params in batch
-                     if first[_point_key(params)] == number and _point_key(params) not in cache]
+                     if first[point_key(params)] == number and point_key(params) not in cache]
             records = {}
             for rec in executor.imap(run_fn, tasks):
                 records[rec.point] = rec
                 progress.update(rec.status == "ok")
             for number, trial_id, params in batch:
-                key = _point_key(params)
+                key = point_key(params)
                 if key not in cache and records.get(number) is not None and records[number].status == "ok":
                     cache[key] = records[number]
                 rec = records.get(number) or cache.get(key) or records[first[key]]
