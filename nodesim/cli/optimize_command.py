@@ -61,7 +61,8 @@ def run(args) -> int:
               + ", ".join(f"{k} = {v:.4g}" for k, v in val["recommended"]["metrics"].items()))
         for key, saving in (val.get("saving_vs_baseline") or {}).items():
             if saving is not None:
-                print(f"  {key}: {100 * saving:.1f} % less than the baseline {val['baseline']['overrides']}")
+                word = "less" if saving >= 0 else "more"
+                print(f"  {key}: {100 * abs(saving):.1f} % {word} than the baseline {val['baseline']['overrides']}")
     print("\n# paste into the scenario:")
     print(study.schedule_toml(), end="")
     return 0

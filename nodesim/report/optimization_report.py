@@ -98,7 +98,7 @@ def optimization_page(directory, **_ignored) -> tuple[Page, dict]:
             page.table(["fresh seed " + str(val["seed"]), "feasible"] + list(problem.metric_keys()), rows)
             for key, saving in (val.get("saving_vs_baseline") or {}).items():
                 if saving is not None:
-                    page.para(f"{key}: {100 * saving:.1f} % less than the baseline")
+                    page.para(f"{key}: {100 * abs(saving):.1f} % {'less' if saving >= 0 else 'more'} than the baseline")
     else:
         page.para("no trial meets every constraint; the closest trials:", note=True)
         closest = pd.DataFrame(rec.get("closest_infeasible") or [])
