@@ -168,6 +168,11 @@ def test_infeasible_everywhere_says_so_and_lists_the_closest_trials(tmp_path):
     assert len(s.closest) == 5 and s.closest["total_violation"].is_monotonic_increasing
     assert s.summary()["closest_infeasible"][0]["trial"] == int(s.closest.iloc[0]["trial"])
     assert len(s.pareto) == 0
+    from nodesim.report import write_report
+
+    info = write_report(tmp_path / "s")
+    page = Path(info["report"]).read_text()
+    assert info["kind"] == "optimization" and "no trial meets every constraint" in page and "<td class=\"text\">spearman_rho</td>" in page
 
 
 def test_pareto_front_constraint_violation_and_sensitivity_on_known_data():
