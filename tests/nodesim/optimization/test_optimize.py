@@ -240,3 +240,12 @@ max = 5.0
     assert (tmp_path / "o" / "report.html").read_text().count("<img") >= 2
     rec = json.loads((tmp_path / "o" / "recommendation.json").read_text())
     assert rec["validation"]["seed"] != 20260101 and rec["validation"]["recommended"]["feasible"] in (True, False)
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "scenarios" / "optimize").glob("*.toml")), ids=lambda p: p.name)
+def test_example_optimisation_files_load(path):
+    from nodesim.optimization.problem import load_problem
+
+    problem = load_problem(path)
+    assert problem.constraints and problem.objectives and problem.validation_seed != problem.seed
+    assert problem.realizations > 1  # their *_p95 keys need more than one realization
