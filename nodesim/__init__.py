@@ -6,6 +6,7 @@ The Python API (see README.md, "Python API"):
     run = nodesim.simulate("scenarios/lab/continuous.toml", seed=7, **{"chain.nodes": 2})
     run.summary, run.timeseries, run.plot_yaw(), run.save("runs/demo")
     nodesim.load_run("runs/demo")
+    study = nodesim.optimize("scenarios/optimize/lab_0p3deg.toml", out="runs/opt")  # trials, pareto DataFrames
 
 ``simulate``, ``load_run``, ``Run`` (:mod:`nodesim.api`) and ``Scenario`` (:mod:`nodesim.scenario.schema`)
 are imported on first use, so ``import nodesim`` stays light (the command line's ``--help`` pays nothing for
@@ -17,10 +18,14 @@ from nodesim.io.rundir import package_version as _package_version
 
 __version__ = _package_version()
 
-__all__ = ["NodesimError", "Run", "Scenario", "__version__", "load_run", "simulate"]
+__all__ = ["NodesimError", "Run", "Scenario", "__version__", "load_run", "optimize", "simulate"]
 
 
 def __getattr__(name: str):
+    if name == "optimize":
+        from nodesim.optimization.driver import optimize
+
+        return optimize
     if name in ("simulate", "load_run", "Run"):
         from nodesim import api
 

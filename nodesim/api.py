@@ -273,3 +273,4 @@ def _same_column(a: np.ndarray, b: np.ndarray) -> bool:
     if a.dtype.kind in "biuf" and b.dtype.kind in "biuf":
         return bool(np.array_equal(a.astype(float), b.astype(float), equal_nan=True))
     return a.astype(str).tolist() == b.astype(str).tolist()
+

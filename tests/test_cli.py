@@ -14,6 +14,7 @@ OPTION_OF = {
     "uncertainty": "--tool",
     "calibrate": "--method",
     "sweep": "--executor",
+    "optimize": "--resume",
     "replay": "--firmware",
     "firmware": "export-config",
     "report": "RUN_OR_CAMPAIGN_DIR",

@@ -14,7 +14,8 @@ import sys
 import nodesim
 from nodesim.errors import USER_ERRORS
 
-COMMANDS = ("run", "link", "uncertainty", "calibrate", "sweep", "replay", "report", "validate", "bench", "firmware", "export", "scenario")
+COMMANDS = ("run", "link", "uncertainty", "calibrate", "sweep", "optimize", "replay", "report", "validate", "bench", "firmware",
+            "export", "scenario")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -2,7 +2,8 @@
 
 The page is one file (``DIR/report.html`` by default) with every plot embedded as a base64 PNG, so it can be
 mailed or archived alone.  :func:`write_report` picks the kind from the directory: ``campaign.json`` ->
-campaign report (:mod:`nodesim.report.campaign_report`), ``summary.json`` / ``manifest.json`` -> run report
+campaign report (:mod:`nodesim.report.campaign_report`), ``optimization.json`` -> optimisation report
+(:mod:`nodesim.report.optimization_report`), ``summary.json`` / ``manifest.json`` -> run report
 (:mod:`nodesim.report.run_report`).
 """
 
@@ -20,9 +21,12 @@ def report_kind(directory: Path) -> str:
         raise NodesimError(f"{d}: not a directory (give a run directory or a campaign directory)")
     if (d / "campaign.json").exists():
         return "campaign"
+    if (d / "optimization.json").exists():
+        return "optimization"
     if (d / "summary.json").exists() or (d / "manifest.json").exists():
         return "run"
-    raise NodesimError(f"{d}: neither a run directory (summary.json) nor a campaign directory (campaign.json)")
+    raise NodesimError(f"{d}: neither a run directory (summary.json), a campaign directory (campaign.json) nor an "
+                      "optimisation directory (optimization.json)")
 
 
 def write_report(directory: Path, out: Path | None = None, **options) -> dict:
@@ -30,6 +34,8 @@ def write_report(directory: Path, out: Path | None = None, **options) -> dict:
     kind = report_kind(directory)
     if kind == "campaign":
         from nodesim.report.campaign_report import campaign_page as build
+    elif kind == "optimization":
+        from nodesim.report.optimization_report import optimization_page as build
     else:
         from nodesim.report.run_report import run_page as build
     page, info = build(Path(directory), **options)

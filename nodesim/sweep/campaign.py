@@ -47,8 +47,9 @@ class CampaignResult:
         }
 
 
-def read_manifest(directory: Path) -> dict | None:
-    path = Path(directory) / MANIFEST
+def read_manifest(directory: Path, name: str = MANIFEST) -> dict | None:
+    """The JSON manifest ``directory/name`` (default ``campaign.json``), or None when there is none."""
+    path = Path(directory) / name
     if not path.exists():
         return None
     try:

@@ -143,7 +143,8 @@ def _err(source: str, msg: str) -> NodesimError:
     return NodesimError(f"{source}: {msg}")
 
 
-def _scenario_keys(base: Scenario) -> set[str]:
+def scenario_keys(base: Scenario) -> set[str]:
+    """Every dotted key of ``base`` (tables and leaves), e.g. ``schedule.timeout_s``: what an axis may vary."""
     keys: set[str] = set()
 
     def walk(prefix: str, obj: Any) -> None:
@@ -225,7 +226,7 @@ def parse_sweep(data: dict, source: str, base_dir: Path) -> SweepSpec:
         raise _err(source, f"keep_runs: true or false (got {keep_runs!r})")
     if isinstance(retries, bool) or not isinstance(retries, int) or not 0 <= retries <= 10:
         raise _err(source, f"retries: an integer in [0, 10] (got {retries!r})")
-    keys = _scenario_keys(base)
+    keys = scenario_keys(base)
     overrides = data.get("overrides", {})
     if not isinstance(overrides, dict):
         raise _err(source, "overrides: a table of dotted scenario keys")

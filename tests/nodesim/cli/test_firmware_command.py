@@ -13,7 +13,7 @@ from firmware_model import c_reference
 from nodesim.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[3]
-SCENARIOS = sorted(p for p in (ROOT / "scenarios").rglob("*.toml") if "sweeps" not in p.parts)
+SCENARIOS = sorted(p for p in (ROOT / "scenarios").rglob("*.toml") if not {"sweeps", "optimize"} & set(p.parts))
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
