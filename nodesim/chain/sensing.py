@@ -62,6 +62,7 @@ def node_signals(
     """Sensor readings of node ``node_index`` (0-based) at true tick times ``t_s`` for every realization."""
     R = scenario.simulation.realizations
     K = t_s.size
+    fixed = scenario.filter.implementation == "fixed"
     gyro = gyro_model(scenario)
     accel = AccelModel(noise_m_s2_per_sqrt_hz=scenario.sensor.accel_noise_ug_per_sqrt_hz * 1e-6 * G0_M_S2)
     timeline = motion.timelines[node_index]
@@ -87,9 +88,10 @@ def node_signals(
         specific_force=f,
         gyro_white_sigma_rad_s=gyro.arw_rad_per_sqrt_s / np.sqrt(dt_s),
         accel_sigma_m_s2=accel.noise_m_s2_per_sqrt_hz / np.sqrt(dt_s),
-        gyro_counts=_stand_in_gyro_counts(meas),
-        accel_counts=np.rint(f / G0_M_S2 * 16384.0 * 34).astype(np.int64),
-        samples=np.full(K, 34, dtype=np.int64),
+        # only the fixed firmware reads counts (the float filter reads gyro_rad_s / specific_force)
+        gyro_counts=_stand_in_gyro_counts(meas) if fixed else None,
+        accel_counts=np.rint(f / G0_M_S2 * 16384.0 * 34).astype(np.int64) if fixed else None,
+        samples=np.full(K, 34, dtype=np.int64) if fixed else None,
     )
 
 
