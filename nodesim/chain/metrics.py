@@ -17,6 +17,8 @@ part of each drilling survey stop; only where the node's filter runs):
 - ``mean_update_age_s``: mean age of the reference at use (encoder read or forwarded estimate);
 - ``max_time_since_update_s``: the longest time over the metric ticks since the node last applied a
   reference update (from the node's filter start; how stale its estimate got).
+Chain-wide: ``adc_clipped_samples``, the IMU axis readings (gyro and accelerometer) clipped at full scale, summed
+over every node (mean over realizations; no p95).
 Each is computed per realization; the summary gives the mean over realizations and, for R > 1, the 95th
 percentile under ``*_p95``.  The headline keys are those of the bottom node (the last in the chain, the
 one whose survey the ground station uses); every node also appears as ``node<id>_<key>``.
@@ -143,6 +145,11 @@ def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, 
     out["stale_packets"] = sum(n.stale_packets for n in run.nodes).astype(float)
     out["duplicate_packets"] = sum(n.duplicate_packets for n in run.nodes).astype(float)
     out["lost_packets"] = run.lost_packets.astype(float)
+    # ADC readings (gyro and accelerometer, per axis) clipped at full scale, summed over the nodes
+    # (nodesim.sensors.chain_imu); the summary gives the mean over realizations
+    R = run.nodes[0].yaw_est_rad.shape[0]
+    out["adc_clipped_samples"] = sum((n.adc_clipped_samples if n.adc_clipped_samples is not None else np.zeros(R))
+                                     for n in run.nodes).astype(float)
     out.update(link_metrics(run))
     if run.motion.stops:
         received = np.zeros(run.nodes[0].yaw_est_rad.shape[0])
@@ -157,7 +164,7 @@ def summarize(per_realization: dict[str, np.ndarray]) -> dict[str, float | None]
     and fractions)."""
     out: dict[str, float | None] = {}
     no_p95 = ("_fraction", "_packets", "surveys_received", "_ratio", "_retransmissions", "_latency_s",
-              "_radio_energy_j", "queue_drops", "fallback_frames")
+              "_radio_energy_j", "queue_drops", "fallback_frames", "_clipped_samples")
     for key, values in per_realization.items():
         finite = values[np.isfinite(values)]
         out[key] = float(np.mean(finite)) if finite.size else None

@@ -100,6 +100,7 @@ class NodeRun:
     ref_yaw_rad: np.ndarray | None = None  # (R, K) NaN where no update
     ref_var_rad2: np.ndarray | None = None
     present_from_s: float = 0.0
+    adc_clipped_samples: np.ndarray | None = None  # (R,) gyro + accelerometer axis readings clipped at full scale
 
 
 @dataclass(frozen=True)
@@ -307,6 +308,8 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         ref_yaw_rad=node.ref_yaw,
         ref_var_rad2=node.ref_var,
         present_from_s=node.timeline.present_from_s,
+        adc_clipped_samples=(None if node.sig.gyro_clipped_samples is None
+                             else node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples),
     )
 
 

@@ -11,6 +11,8 @@ Random streams: node n's "gyro" and "accel" streams (nodesim.rng.streams), one g
 
 from __future__ import annotations
 
+import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +20,7 @@ import numpy as np
 from nodesim.motion.timelines import ChainMotion
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
+from nodesim.sensors.chain_imu import ChainImu, SharedTruth, node_counts
 from nodesim.sensors.tick_averaged import AccelModel, GyroZModel
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG, G0_M_S2
@@ -42,6 +45,8 @@ class NodeSignals:
     gyro_counts: np.ndarray | None = None  # (R, K, 3) int64
     accel_counts: np.ndarray | None = None  # (R, K, 3) int64
     samples: np.ndarray | None = None  # (K,) int64
+    gyro_clipped_samples: np.ndarray | None = None  # (R,) int64 gyro axis readings clipped (count model only)
+    accel_clipped_samples: np.ndarray | None = None  # (R,) int64 accelerometer axis readings clipped
 
 
 def gyro_model(scenario: Scenario) -> GyroZModel:
@@ -59,10 +64,14 @@ def gyro_model(scenario: Scenario) -> GyroZModel:
 def node_signals(
     scenario: Scenario, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray, dt_s: float
 ) -> NodeSignals:
-    """Sensor readings of node ``node_index`` (0-based) at true tick times ``t_s`` for every realization."""
+    """Sensor readings of node ``node_index`` (0-based) at true tick times ``t_s`` for every realization
+    (``sensor.model``: the tick-averaged stand-ins, or the MPU6500 count model)."""
+    if scenario.sensor.model == "mpu6500_counts":
+        return _count_model_signals(scenario, motion, streams, node_index, t_s, dt_s)
     R = scenario.simulation.realizations
     K = t_s.size
     fixed = scenario.filter.implementation == "fixed"
+    imu = ChainImu.from_scenario(scenario)  # its ranges give the stand-in's count sensitivities
     gyro = gyro_model(scenario)
     accel = AccelModel(noise_m_s2_per_sqrt_hz=scenario.sensor.accel_noise_ug_per_sqrt_hz * 1e-6 * G0_M_S2)
     timeline = motion.timelines[node_index]
@@ -89,17 +98,65 @@ def node_signals(
         gyro_white_sigma_rad_s=gyro.arw_rad_per_sqrt_s / np.sqrt(dt_s),
         accel_sigma_m_s2=accel.noise_m_s2_per_sqrt_hz / np.sqrt(dt_s),
         # only the fixed firmware reads counts (the float filter reads gyro_rad_s / specific_force)
-        gyro_counts=_stand_in_gyro_counts(meas) if fixed else None,
-        accel_counts=np.rint(f / G0_M_S2 * 16384.0 * 34).astype(np.int64) if fixed else None,
+        gyro_counts=_stand_in_gyro_counts(meas, imu.gyro_lsb_per_deg_s) if fixed else None,
+        accel_counts=np.rint(f / G0_M_S2 * imu.accel_lsb_per_g * 34).astype(np.int64) if fixed else None,
         samples=np.full(K, 34, dtype=np.int64) if fixed else None,
     )
 
 
-def _stand_in_gyro_counts(gyro_z_rad_s: np.ndarray) -> np.ndarray:
-    """(R, K, 3) int64: 34 samples of 131 LSB per deg/s on z, nothing on x and y (TEMPORARY, see NodeSignals)."""
+def _stand_in_gyro_counts(gyro_z_rad_s: np.ndarray, lsb_per_deg_s: float) -> np.ndarray:
+    """(R, K, 3) int64: 34 samples of the z rate at ``lsb_per_deg_s``, nothing on x and y (the stand-in's counts)."""
     counts = np.zeros(gyro_z_rad_s.shape + (3,), dtype=np.int64)
-    counts[..., 2] = np.rint(gyro_z_rad_s / DEG * 131.0 * 34)
+    counts[..., 2] = np.rint(gyro_z_rad_s / DEG * lsb_per_deg_s * 34)
     return counts
+
+
+def _count_model_signals(scenario: Scenario, motion: ChainMotion, streams: RunStreams, node_index: int,
+                         t_s: np.ndarray, dt_s: float) -> NodeSignals:
+    """``sensor.model = "mpu6500_counts"``: every node reads the sensor-rate count model of
+    :mod:`nodesim.sensors.chain_imu` (MPU6500 int16 counts, full-scale clipping, misalignment, scale factor,
+    biases, white noise, residual tilt; ``sensor.sampling`` per_sample or tick_sum); the float path reads the
+    same sensor, the sums converted to SI:  gyro[k] = gyro_counts[k, z] / n_k / S_g,
+    accel[k] = accel_counts[k] / n_k / S_a."""
+    R = scenario.simulation.realizations
+    imu = ChainImu.from_scenario(scenario)
+    c = node_counts(imu, motion, streams, node_index, t_s, dt_s, R, _shared_truth(scenario, imu, motion, dt_s))
+    att = motion.attitude(node_index, t_s)
+    n = c.samples.astype(float)
+    return NodeSignals(
+        t_s=t_s,
+        gyro_rad_s=c.gyro_counts[:, :, 2] / n / imu.gyro_lsb_per_rad_s,
+        true_bias_rad_s=c.true_bias_rad_s,
+        true_yaw_rad=att.yaw_rad,
+        true_inclination_rad=att.inclination_rad,
+        true_azimuth_rad=att.azimuth_rad,
+        specific_force=c.accel_counts / n[None, :, None] / imu.accel_lsb_per_m_s2,
+        gyro_white_sigma_rad_s=imu.gyro_arw_rad_per_sqrt_s / np.sqrt(dt_s),
+        accel_sigma_m_s2=imu.accel_density_m_s2_per_sqrt_hz / np.sqrt(dt_s),
+        gyro_counts=c.gyro_counts,
+        accel_counts=c.accel_counts,
+        samples=c.samples,
+        gyro_clipped_samples=c.gyro_clipped_samples,
+        accel_clipped_samples=c.accel_clipped_samples,
+    )
+
+
+_LAST_TRUTH: list = [None]  # (weakref to the motion, key, SharedTruth) of the latest run
+
+
+def _shared_truth(scenario: Scenario, imu: ChainImu, motion: ChainMotion, dt_s: float) -> SharedTruth | None:
+    """The lab's per-sample truth, the same for every node (a rigid string), computed once per run on the grid of
+    every sample a tick in [0, duration] can read (nodes whose samples fall outside compute their own)."""
+    if scenario.motion.kind != "lab":
+        return None
+    key = (imu, dt_s, scenario.simulation.duration_s)
+    last = _LAST_TRUTH[0]
+    if last is not None and last[0]() is motion and last[1] == key:
+        return last[2]
+    rate = imu.sample_rate_hz
+    truth = SharedTruth(imu, motion, math.floor(-dt_s * rate) + 1, math.floor(scenario.simulation.duration_s * rate) + 1)
+    _LAST_TRUTH[0] = (weakref.ref(motion), key, truth)
+    return truth
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,8 @@ from numpy.random.bit_generator import ISeedSequence
 from nodesim import threads
 from nodesim.rng import pcg64
 
-SENSOR_STREAMS: tuple[str, ...] = ("gyro", "accel", "encoder", "magnetometer", "clock")
+SENSOR_STREAMS: tuple[str, ...] = ("gyro", "accel", "encoder", "magnetometer", "clock", "tilt", "gyro_samples",
+                                   "accel_samples")
 """Per-node stream names, in spawn order.  Append new names at the end only."""
 
 POOL_WORDS = 4

@@ -161,6 +161,32 @@ class SensorSection(_Section):
         ),
     )
     encoder_counts_per_rev: int = Field(1024, ge=1, le=1 << 24)
+    gyro_full_scale_dps: Literal[250, 500, 1000, 2000] = Field(
+        250, description="MPU6500 gyro full-scale range (+/- deg/s): 131 / 65.5 / 32.8 / 16.4 LSB per deg/s "
+        "(MPU-6500 product specification 6.1); the reading clips there (counted as adc_clipped_samples)")
+    accel_full_scale_g: Literal[2, 4, 8, 16] = Field(
+        2, description="MPU6500 accelerometer full-scale range (+/- g): 16384 / 8192 / 4096 / 2048 LSB per g "
+        "(MPU-6500 product specification 6.2)")
+    sampling: Literal["tick_sum", "per_sample"] = Field(
+        "tick_sum", description="per_sample: every int16 sample at sample_rate_hz, quantised, clipped and summed "
+        "per tick as the MCU reads the FIFO; tick_sum (fast): the tick's integer count sum drawn directly from "
+        "the distribution per_sample produces, falling back to per_sample for a tick where that is not valid "
+        "(nodesim.sensors.tick_counts)")
+    sample_rate_hz: float = Field(
+        65.0, gt=0.0, le=8000.0, description="IMU output data rate: thesis logging rate 65 Hz (MPU6500 gyro "
+        "ODR up to 8 kHz); must give every firmware tick at least one sample")
+    residual_tilt_sigma_deg: float = Field(
+        0.0422, ge=0.0, le=10.0, description="per node and realization, residual static tilt of the sensor frame "
+        "about each transverse axis after calibration (sigma): thesis table 4.20, MPU6500 turn-table "
+        "calibration, standard deviation 0.0422 deg")
+    model: Literal["tick_averaged", "mpu6500_counts"] = Field(
+        "tick_averaged", description="what the chain's nodes read: 'tick_averaged' (the z-gyro and accelerometer "
+        "tick means of nodesim.sensors.tick_averaged, requantised to per-tick int16 count sums as 34 samples at "
+        "the configured ranges for the fixed firmware) or 'mpu6500_counts' (the sensor-rate MPU6500 count model "
+        "of nodesim.sensors.chain_imu: 3 axes, clipping, residual tilt; sampling, sample_rate_hz and "
+        "residual_tilt_sigma_deg apply to it only). Not yet the default: the survey pairs the tick-mean "
+        "accelerometer with the tick-end yaw (half a tick of lag while rotating) and the lab procedure's "
+        "alignment offset, which removes the residual tilt, is not modelled")
 
 
 class FilterSection(_Section):

@@ -1,0 +1,307 @@
+"""The IMU every chain node reads: MPU6500 3-axis gyro and accelerometer, int16 counts, summed per firmware tick.
+
+Per node n and realization r, sample j (at t_j = j / sample_rate_hz, :func:`~nodesim.sensors.tick_counts.sample_windows`)
+and axis i, the noise-free readings in LSB are
+
+    gyro:   mu_j = S_g [(1 + s) T_r omega_j + b_on + b_res [t_j >= t_start] + b_gm,k]     omega_j = (0, 0, theta'(t_j))
+    accel:  mu_j = S_a T_r f_j / g0                   f_j = specific force of the tube (thesis eqs 1.1-1.3 frame)
+
+with S_g the gyro sensitivity (131 / 65.5 / 32.8 / 16.4 LSB per deg/s at 250 / 500 / 1000 / 2000 deg/s, MPU-6500
+product specification 6.1), S_a the accelerometer's (16384 / 8192 / 4096 / 2048 LSB per g at 2 / 4 / 8 / 16 g,
+specification 6.2), s the gyro scale-factor error (thesis table 4.16), b_on the turn-on bias (removed by the static
+window), b_res the residual bias after the node's filter start (thesis 4.2.3), b_gm the first-order Gauss-Markov
+bias (thesis eqs 3.18-3.20) at the tick rate (held over a tick: tau = 500 s >> 0.53 s), and T_r the node's residual
+static misalignment: the sensor frame tilted about x by a and about y by b, T = R_x(a) R_y(b), a, b ~ N(0,
+residual_tilt_sigma^2) per node and realization (thesis table 4.20: MPU6500 turn-table calibration, standard
+deviation 0.0422 deg).  The gyro error values apply to every gyro axis; the transverse gyros see no true rate (path
+curvature rates at drilling speeds are below 1e-5 rad/s).  White noise per sample: sigma = N sqrt(sample_rate) with
+N the two-sided density (gyro ARW, accelerometer density), so a tick's mean has sigma N / sqrt(T_tick) as before.
+Each reading is quantised to int16, clipped at full scale (counted) and summed per tick
+(:mod:`nodesim.sensors.tick_counts`: ``per_sample`` or the direct ``tick_sum`` draw with its fallback).
+
+Random streams (:class:`nodesim.rng.streams.RunStreams`, per node, one generator per realization):
+  ``tilt``: a, b (2 normals);
+  ``gyro``: the Gauss-Markov drive (K, 3) when its sigma is > 0, then (tick_sum) the tick-sum normals (K, 3);
+  ``accel``: (tick_sum) the tick-sum normals (K, 3);
+  ``gyro_samples`` / ``accel_samples``: the per-sample normals (n_k, 3) of every tick read per sample, in tick order.
+The tick-sum normals of every tick are drawn (used or not), so the fallback of one tick moves no other draw.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from firmware_model.config import GYRO_SENS_X10
+
+from nodesim.motion.timelines import ChainMotion
+from nodesim.rng.streams import RunStreams
+from nodesim.scenario.schema import Scenario
+from nodesim.sensors import noise
+from nodesim.sensors import tick_counts as tc
+from nodesim.units import DEG, G0_M_S2
+
+GYRO_LSB_PER_DEG_S = {fs: x10 / 10.0 for fs, x10 in GYRO_SENS_X10.items()}  # the firmware's table
+"""MPU6500 gyro sensitivity [LSB per deg/s] by full-scale range [deg/s] (MPU-6500 product specification 6.1)."""
+ACCEL_LSB_PER_G = {2: 16384.0, 4: 8192.0, 8: 4096.0, 16: 2048.0}
+"""MPU6500 accelerometer sensitivity [LSB per g] by full-scale range [g] (MPU-6500 product specification 6.2)."""
+PER_SAMPLE_CHUNK_NORMALS = 1 << 23
+"""Per-sample normals drawn at once (a range of realizations; 64 MB)."""
+
+
+@dataclass(frozen=True)
+class ChainImu:
+    """The scenario's node IMU (module docstring); rates in rad/s, forces in m/s^2, sigmas per sample."""
+
+    sampling: str
+    sample_rate_hz: float
+    gyro_full_scale_dps: int
+    accel_full_scale_g: int
+    gyro_arw_rad_per_sqrt_s: float
+    accel_density_m_s2_per_sqrt_hz: float
+    scale_factor_error: float
+    turn_on_bias_rad_s: float
+    residual_bias_rad_s: float
+    bias_instability_rad_s: float
+    bias_tau_s: float
+    tilt_sigma_rad: float
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario) -> "ChainImu":
+        s = scenario.sensor
+        return cls(
+            sampling=s.sampling, sample_rate_hz=s.sample_rate_hz, gyro_full_scale_dps=int(s.gyro_full_scale_dps),
+            accel_full_scale_g=int(s.accel_full_scale_g), gyro_arw_rad_per_sqrt_s=s.gyro_arw_deg_per_sqrt_s * DEG,
+            accel_density_m_s2_per_sqrt_hz=s.accel_noise_ug_per_sqrt_hz * 1e-6 * G0_M_S2,
+            scale_factor_error=s.gyro_scale_factor_error, turn_on_bias_rad_s=s.gyro_turn_on_bias_deg_s * DEG,
+            residual_bias_rad_s=s.gyro_residual_bias_deg_s * DEG,
+            bias_instability_rad_s=s.gyro_bias_instability_deg_s * DEG, bias_tau_s=s.gyro_bias_tau_s,
+            tilt_sigma_rad=s.residual_tilt_sigma_deg * DEG,
+        )
+
+    @property
+    def gyro_lsb_per_deg_s(self) -> float:
+        return GYRO_LSB_PER_DEG_S[self.gyro_full_scale_dps]
+
+    @property
+    def accel_lsb_per_g(self) -> float:
+        return ACCEL_LSB_PER_G[self.accel_full_scale_g]
+
+    @property
+    def gyro_lsb_per_rad_s(self) -> float:
+        return self.gyro_lsb_per_deg_s / DEG
+
+    @property
+    def accel_lsb_per_m_s2(self) -> float:
+        return self.accel_lsb_per_g / G0_M_S2
+
+    @property
+    def gyro_sigma_lsb(self) -> float:
+        """Per-sample gyro white-noise sigma: ARW sqrt(rate) in LSB."""
+        return self.gyro_arw_rad_per_sqrt_s * math.sqrt(self.sample_rate_hz) * self.gyro_lsb_per_rad_s
+
+    @property
+    def accel_sigma_lsb(self) -> float:
+        """Per-sample accelerometer white-noise sigma: N sqrt(rate) in LSB."""
+        return self.accel_density_m_s2_per_sqrt_hz * math.sqrt(self.sample_rate_hz) * self.accel_lsb_per_m_s2
+
+    @property
+    def gyro_limits(self) -> tuple[int, int]:
+        return tc.count_limits(self.gyro_full_scale_dps * self.gyro_lsb_per_deg_s)
+
+    @property
+    def accel_limits(self) -> tuple[int, int]:
+        return tc.count_limits(self.accel_full_scale_g * self.accel_lsb_per_g)
+
+
+@dataclass(frozen=True)
+class NodeCounts:
+    """One node's per-tick count sums in every realization."""
+
+    gyro_counts: np.ndarray  # (R, K, 3) int64
+    accel_counts: np.ndarray  # (R, K, 3) int64
+    samples: np.ndarray  # (K,) int64
+    gyro_clipped_samples: np.ndarray  # (R,) int64, axis readings clipped
+    accel_clipped_samples: np.ndarray  # (R,) int64
+    true_bias_rad_s: np.ndarray  # (R, K) z-gyro bias at the tick times
+    tilt_rad: np.ndarray  # (R, 2) the residual tilt (about x, about y)
+    per_sample_ticks: int  # (tick, realization) pairs of either triad read per sample
+
+
+def sensor_force(inclination_rad, azimuth_rad, yaw_rad) -> np.ndarray:
+    """Noise-free sensor-frame specific force (..., 3) m/s^2: g [sin I cos(A - psi), sin I sin(A - psi), cos I], the
+    third row of :func:`nodesim.sensors.magnetometer.body_to_neu` (:func:`~nodesim.sensors.magnetometer.specific_force_body`)
+    without building the matrices (the chain evaluates it at every sample)."""
+    inc, azi, yaw = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (inclination_rad, azimuth_rad, yaw_rad)))
+    tau = azi - yaw
+    si = np.sin(inc)
+    out = np.empty(inc.shape + (3,))
+    out[..., 0] = G0_M_S2 * (np.cos(tau) * si)
+    out[..., 1] = G0_M_S2 * (np.sin(tau) * si)
+    out[..., 2] = G0_M_S2 * np.cos(inc)
+    return out
+
+
+def tilt_matrices(tilt_rad: np.ndarray) -> np.ndarray:
+    """(R, 3, 3) T = R_x(a) R_y(b) for rows (a, b) of ``tilt_rad``."""
+    a, b = tilt_rad[:, 0], tilt_rad[:, 1]
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    z, o = np.zeros_like(a), np.ones_like(a)
+    rx = np.stack([np.stack([o, z, z], -1), np.stack([z, ca, -sa], -1), np.stack([z, sa, ca], -1)], -2)
+    ry = np.stack([np.stack([cb, z, sb], -1), np.stack([z, o, z], -1), np.stack([-sb, z, cb], -1)], -2)
+    return rx @ ry
+
+
+def _first_sample_at_or_after(t_s: float, rate_hz: float) -> int:
+    """Smallest j with j / rate >= t (the residual bias applies from there on)."""
+    if not math.isfinite(t_s):
+        return np.iinfo(np.int64).max if t_s > 0 else np.iinfo(np.int64).min
+    j = math.ceil(t_s * rate_hz)
+    while (j - 1) / rate_hz >= t_s:
+        j -= 1
+    while j / rate_hz < t_s:
+        j += 1
+    return j
+
+
+def sample_truth(imu: ChainImu, motion: ChainMotion, node_index: int, j_lo: int, j_hi: int):
+    """(z-gyro truth (S,), accelerometer truth (S, 3)) in LSB at the samples j_lo <= j < j_hi (before tilt, scale
+    factor and bias)."""
+    t_j = np.arange(j_lo, j_hi, dtype=np.int64) / imu.sample_rate_hz
+    u_gz = motion.rotation.rate_rad_s(t_j) * imu.gyro_lsb_per_rad_s
+    att = motion.attitude(node_index, t_j)
+    return u_gz, sensor_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad) * imu.accel_lsb_per_m_s2
+
+
+class SharedTruth:
+    """:func:`sample_truth` on a fixed sample grid shared by every node whose attitude does not depend on the node
+    (the lab's rigid string): computed once per run, sliced per node (the same values as computing it per node)."""
+
+    def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int):
+        self.j_lo, self.j_hi = j_lo, j_hi
+        self.u_gz, self.u_a = sample_truth(imu, motion, 0, j_lo, j_hi)
+        self.umax = (np.array([0.0, 0.0, np.abs(self.u_gz).max(initial=0.0)]), np.abs(self.u_a).max(axis=0, initial=0.0))
+
+    def covers(self, a: int, b: int) -> bool:
+        return self.j_lo <= a and b <= self.j_hi
+
+    def slice(self, a: int, b: int):
+        return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo], self.umax
+
+
+def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray,
+                dt_s: float, realizations: int, truth: SharedTruth | None = None) -> NodeCounts:
+    """Count sums of node ``node_index`` (0-based) at its true tick times ``t_s`` (module docstring); ``truth`` the
+    run's shared per-sample truth where the attitude is the same for every node."""
+    R, K = realizations, t_s.size
+    first, n = tc.sample_windows(t_s, dt_s, imu.sample_rate_hz)
+    S = int(n.sum())
+    starts = np.concatenate([[0], np.cumsum(n)[:-1]]).astype(np.int64)
+    if truth is not None and truth.covers(int(first[0]), int(first[0]) + S):
+        u_gz, u_a, umax_all = truth.slice(int(first[0]), int(first[0]) + S)
+    else:
+        u_gz, u_a = sample_truth(imu, motion, node_index, int(first[0]), int(first[0]) + S)
+        umax_all = np.array([0.0, 0.0, np.abs(u_gz).max(initial=0.0)]), np.abs(u_a).max(axis=0, initial=0.0)
+    j = first[0] + np.arange(S, dtype=np.int64)  # the node's samples are consecutive
+    tilt = streams.sensor_normals(R, node_index, "tilt", 2) * imu.tilt_sigma_rad
+    T = tilt_matrices(tilt)
+    absT = np.abs(T)
+    # gyro bias (LSB): turn-on + residual after the filter start (from sample j_start on) + Gauss-Markov per tick
+    timeline = motion.timelines[node_index]
+    j_start = _first_sample_at_or_after(timeline.filter_start_s, imu.sample_rate_hz)
+    n_after = np.clip(first + n - j_start, 0, n)
+    sg = imu.gyro_lsb_per_rad_s
+    b_on, b_res = imu.turn_on_bias_rad_s * sg, imu.residual_bias_rad_s * sg
+    gm_n = 3 * K if imu.bias_instability_rad_s != 0.0 else 0
+    tick_sum = imu.sampling == "tick_sum"
+    g_normals = streams.sensor_normals(R, node_index, "gyro", gm_n + (3 * K if tick_sum else 0))
+    if gm_n:
+        drive = g_normals[:, :gm_n].reshape(R, K, 3).transpose(0, 2, 1).copy()
+        gm = noise.gauss_markov_from_normals(drive, imu.bias_instability_rad_s, imu.bias_tau_s, dt_s)
+        gm = gm.transpose(0, 2, 1) * sg  # (R, K, 3) LSB
+    else:
+        gm = np.zeros((R, K, 3))
+    true_bias = (imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)[None, :]
+                 + gm[:, :, 2] / sg)
+    gain = 1.0 + imu.scale_factor_error
+    # tick sums of the noise-free readings and a bound on each tick's largest |mu|: first from the largest |u| of
+    # the grid; only where that bound fails, the per-tick maxima
+    usum_g = np.zeros((K, 3))
+    usum_g[:, 2] = np.add.reduceat(u_gz, starts)
+    usum_a = np.add.reduceat(u_a, starts, axis=0)
+    bias_sum = n[None, :, None] * (b_on + gm) + (n_after * b_res)[None, :, None]
+    mean_g = gain * np.einsum("kj,rij->rki", usum_g, T) + bias_sum
+    mean_a = np.einsum("kj,rij->rki", usum_a, T)
+    b_max = np.maximum(np.abs(b_on + gm), np.abs(b_on + b_res + gm))
+
+    def bounds(umax_g, umax_a):
+        return (abs(gain) * np.einsum("kj,rij->rki", umax_g, absT) + b_max, np.einsum("kj,rij->rki", umax_a, absT))
+    g_lo, g_hi = imu.gyro_limits
+    a_lo, a_hi = imu.accel_limits
+    if tick_sum:
+        bound_g, bound_a = bounds(np.broadcast_to(umax_all[0], (K, 3)), np.broadcast_to(umax_all[1], (K, 3)))
+        g_sel = ~tc.tick_sum_valid(bound_g, imu.gyro_sigma_lsb, g_lo, g_hi).all(axis=2)
+        a_sel = ~tc.tick_sum_valid(bound_a, imu.accel_sigma_lsb, a_lo, a_hi).all(axis=2)
+        if g_sel.any() or a_sel.any():
+            umax_g = np.zeros((K, 3))
+            umax_g[:, 2] = np.maximum.reduceat(np.abs(u_gz), starts)
+            bound_g, bound_a = bounds(umax_g, np.maximum.reduceat(np.abs(u_a), starts, axis=0))
+            g_sel = ~tc.tick_sum_valid(bound_g, imu.gyro_sigma_lsb, g_lo, g_hi).all(axis=2)
+            a_sel = ~tc.tick_sum_valid(bound_a, imu.accel_sigma_lsb, a_lo, a_hi).all(axis=2)
+        gyro = tc.tick_sum_draw(mean_g, n[None, :, None], imu.gyro_sigma_lsb, g_normals[:, gm_n:].reshape(R, K, 3))
+        a_normals = streams.sensor_normals(R, node_index, "accel", 3 * K).reshape(R, K, 3)
+        accel = tc.tick_sum_draw(mean_a, n[None, :, None], imu.accel_sigma_lsb, a_normals)
+    else:
+        g_sel = a_sel = np.ones((R, K), dtype=bool)
+        gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
+
+    def gyro_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
+        after = (j[idx] >= j_start)[:, None]
+        u = np.zeros((idx.size, 3))
+        u[:, 2] = u_gz[idx]
+        return gain * (u @ T[r].T) + b_on + gm[r, ticks] + b_res * after
+
+    def accel_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
+        return u_a[idx] @ T[r].T
+
+    g_clip = _per_sample(gyro, g_sel, gyro_mu, imu.gyro_sigma_lsb, g_lo, g_hi, starts, n, streams, node_index,
+                         "gyro_samples")
+    a_clip = _per_sample(accel, a_sel, accel_mu, imu.accel_sigma_lsb, a_lo, a_hi, starts, n, streams, node_index,
+                         "accel_samples")
+    return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, tilt,
+                      int(g_sel.sum() + a_sel.sum()))
+
+
+def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: int, hi: int, starts: np.ndarray,
+                n: np.ndarray, streams: RunStreams, node_index: int, stream: str) -> np.ndarray:
+    """Overwrite the selected ticks (sel (R, K)) of ``out`` (R, K, 3) with per-sample sums; clipped readings (R,)."""
+    R = sel.shape[0]
+    clipped = np.zeros(R, dtype=np.int64)
+    need = 3 * (sel * n[None, :]).sum(axis=1)  # normals per realization
+    r0 = 0
+    while r0 < R:
+        if need[r0] == 0:
+            r0 += 1
+            continue
+        r1 = r0 + 1  # a range of realizations whose normals fit in one chunk
+        while r1 < R and (r1 + 1 - r0) * max(int(need[r0:r1 + 1].max()), 1) <= PER_SAMPLE_CHUNK_NORMALS:
+            r1 += 1
+        sub = dataclasses.replace(streams, first_realization=streams.first_realization + r0)
+        w = sub.sensor_normals(r1 - r0, node_index, stream, int(need[r0:r1].max()))
+        for r in range(r0, r1):
+            ks = np.flatnonzero(sel[r])
+            if ks.size == 0:
+                continue
+            nk = n[ks]
+            m = int(nk.sum())
+            offsets = np.concatenate([[0], np.cumsum(nk)[:-1]])
+            idx = np.repeat(starts[ks] - offsets, nk) + np.arange(m)
+            ticks = np.repeat(ks, nk)
+            sums, clip = tc.per_sample_sums(mu_of(r, idx, ticks), sigma_lsb, w[r - r0, :3 * m].reshape(m, 3), nk, lo, hi)
+            out[r, ks] = sums
+            clipped[r] = int(clip.sum())
+        r0 = r1
+    return clipped
