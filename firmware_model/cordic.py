@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from firmware_model.errors import FirmwareError
+from firmware_model.fixed_kernel import shift_right_round
 
 ANGLE_BITS = 32
 TURN = 1 << ANGLE_BITS  # binary-angle LSBs per turn
@@ -77,12 +78,6 @@ def wrap32(x):
 
 
 @njit(cache=True, inline="always")
-def rshift_round(x, s):
-    """x / 2^s rounded half to even (s >= 1), the firmware's rounding (fixed_kernel._sat)."""
-    return (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
-
-
-@njit(cache=True, inline="always")
 def norm_shift(m, bits):
     """s such that m * 2^s lies in [2^(bits-1), 2^bits) for m >= 1 (s < 0: a right shift)."""
     s = 0
@@ -124,9 +119,9 @@ def vectoring(x, y, iterations):
             x, y, z = x + (y >> i), y - (x >> i), z + ATAN[i]
         else:
             x, y, z = x - (y >> i), y + (x >> i), z - ATAN[i]
-    mag = rshift_round(x * K_INV[iterations], GAIN_FRAC)
+    mag = shift_right_round(x * K_INV[iterations], GAIN_FRAC)
     if s > 0:
-        mag = rshift_round(mag, s)
+        mag = shift_right_round(mag, s)
     elif s < 0:
         mag = mag << -s
     return wrap32(z), mag

@@ -119,6 +119,22 @@ def counts_dict(counts) -> dict[str, int]:
 
 # ---- primitives on int64 scalars ---------------------------------------------------------------------------
 @njit(cache=True)
+def shift_right_round(x, s):
+    """x / 2^s rounded half to even (s >= 1), no saturation: ``(x + ((x >> s) & 1) + (1 << (s-1)) - 1) >> s``."""
+    return (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
+
+
+@njit(cache=True)
+def div_round(n, d):
+    """n / d rounded half to even for d > 0: the floor quotient, then the remainder decides (C: fx_div_round)."""
+    q = n // d
+    r2 = 2 * (n - q * d)
+    if r2 > d or (r2 == d and (q & 1) == 1):
+        q += 1
+    return q
+
+
+@njit(cache=True)
 def _sat(x, frac_in, w, f, counts, site):
     """fixedpoint._requantize with HALF_EVEN and SATURATE of the int64 intermediate ``x``."""
     hi = (np.int64(1) << (w - 1)) - 1
@@ -127,7 +143,7 @@ def _sat(x, frac_in, w, f, counts, site):
     if s > 0:
         if s > MAX_SHIFT:
             raise FirmwareError("compiled fixed filter: a right shift exceeds 62 bits (formats outside fixedpoint's range)")
-        x = (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
+        x = shift_right_round(x, s)
     elif s < 0:
         ls = -s
         if ls > MAX_SHIFT:
@@ -192,11 +208,7 @@ def _div(a, fa, b, fb, p, i, counts, site):
     if d == 0:  # the guarded division: MAX or MIN by the numerator's sign, one overflow
         counts[site] += 1
         return (np.int64(1) << (w - 1)) - 1 if n >= 0 else -(np.int64(1) << (w - 1))
-    q = n // d  # floor (d > 0)
-    r2 = 2 * (n - q * d)
-    if r2 > d or (r2 == d and (q & 1) == 1):
-        q += 1
-    return _sat(q, f, w, f, counts, site)
+    return _sat(div_round(n, d), f, w, f, counts, site)
 
 
 @njit(cache=True)

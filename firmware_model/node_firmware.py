@@ -80,19 +80,9 @@ US_PER_TURN_DEG = 360_000_000  # 360 deg x 1e6 us
 
 
 @njit(cache=True)
-def div_round(n, d):
-    """n / d rounded half to even, d > 0 (fixedpoint.div's rounding; C: fx_div_round)."""
-    q = n // d  # floor
-    r2 = 2 * (n - q * d)
-    if r2 > d or (r2 == d and (q & 1) == 1):
-        q += 1
-    return q
-
-
-@njit(cache=True)
 def counts_to_rate(count_sum, n, frac, sens_x10):
     """round_he(count_sum * 10 * 2^frac / (n * S10)): the mean of n int16 samples in Q(frac) deg/s (n >= 1)."""
-    return div_round(count_sum * 10 * (np.int64(1) << frac), n * sens_x10)
+    return fk.div_round(count_sum * 10 * (np.int64(1) << frac), n * sens_x10)
 
 
 @njit(cache=True)
@@ -155,19 +145,13 @@ def transfer_us_sat(transfer_us, counts):
 
 
 @njit(cache=True)
-def shift_round(x, s):
-    """x / 2^s rounded half to even (s >= 1), no saturation (fixed_kernel._sat's rounding)."""
-    return (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
-
-
-@njit(cache=True)
 def advance(yaw_raw, omega_raw, transfer_us, fparams, counts):
     """Eq 3.29 in binary-angle arithmetic (module docstring): yaw + omega transfer.  The increment is rounded, not
     saturated: a binary angle is exact modulo one turn, so any advance wraps correctly."""
     fr, wy, fy = fparams[fk.W_RATE + 1], fparams[fk.W_YAW], fparams[fk.W_YAW + 1]
-    k = div_round(transfer_us << ADVANCE_FRAC, US_PER_TURN_DEG)
+    k = fk.div_round(transfer_us << ADVANCE_FRAC, US_PER_TURN_DEG)
     k = fk._sat(k, ADVANCE_FRAC, 32, ADVANCE_FRAC, counts, X_GAIN)
-    inc = shift_round(omega_raw * k, fr + ADVANCE_FRAC - fy)  # fr + 35 - fy = 19 for every word length
+    inc = fk.shift_right_round(omega_raw * k, fr + ADVANCE_FRAC - fy)  # fr + 35 - fy = 19 for every word length
     return fk._wrap(yaw_raw + inc, wy)
 
 
@@ -179,7 +163,7 @@ def omega(state, params, fparams, counts, transfer_us):
     w = fk._sub(state[S_RATE], fr, state[fk.I_BIAS], fb, fparams, fk.W_RATE, counts, X_OMEGA)
     if params[P_EXTRA] != 0 and state[S_HAVE_LAST] != 0:
         dt_us = params[P_DT_US]
-        slope = div_round((state[S_RATE] - state[S_LAST_RATE]) * (dt_us - transfer_us), 2 * dt_us)
+        slope = fk.div_round((state[S_RATE] - state[S_LAST_RATE]) * (dt_us - transfer_us), 2 * dt_us)
         w = fk._sat(w + slope, fr, wr, fr, counts, X_OMEGA)
     return w
 

@@ -39,9 +39,9 @@ import numpy as np
 from numba import njit
 
 from firmware_model import cordic
-from firmware_model.cordic import rshift_round, wrap32
+from firmware_model.cordic import wrap32
 from firmware_model.errors import FirmwareError
-from firmware_model.node_firmware import div_round
+from firmware_model.fixed_kernel import div_round, shift_right_round
 
 MODE_CORDIC = 0
 MODE_FPU = 1
@@ -63,7 +63,7 @@ def yaw_to_ba32(yaw_raw, yaw_frac_bits):
     if yaw_frac_bits <= 32:
         y = yaw_raw << (32 - yaw_frac_bits)
     else:
-        y = rshift_round(yaw_raw, yaw_frac_bits - 32)
+        y = shift_right_round(yaw_raw, yaw_frac_bits - 32)
     return y & MASK32
 
 

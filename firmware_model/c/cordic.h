@@ -16,7 +16,6 @@
 int64_t cordic_atan_entry(int32_t i);
 int64_t cordic_gain_inv(int32_t iterations);
 int64_t cordic_wrap32(int64_t x);
-int64_t cordic_rshift_round(int64_t x, int32_t s);
 int32_t cordic_norm_shift(int64_t m, int32_t bits);
 int64_t cordic_shift(int64_t x, int32_t s);
 int32_t cordic_vectoring(int64_t x, int64_t y, int32_t iterations, int64_t *angle, int64_t *magnitude);

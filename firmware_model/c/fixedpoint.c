@@ -1,6 +1,12 @@
 /* See fixedpoint.h. Each function mirrors the njit function of the same name in firmware_model/fixed_kernel.py
- * (_sat, _add, _sub, _mul, _div, _wrap). */
+ * (_sat, _add, _sub, _mul, _div, _wrap, shift_right_round, div_round). */
 #include "fixedpoint.h"
+
+int64_t fx_shift_round(int64_t x, int64_t s)
+{
+    /* x / 2^s rounded half to even, s >= 1, no saturation */
+    return (x + (((x >> s) & 1) + ((int64_t)1 << (s - 1)) - 1)) >> s;
+}
 
 int64_t fx_sat(int64_t x, int64_t frac_in, int64_t w, int64_t f, int64_t *counts, int64_t site)
 {
@@ -8,7 +14,7 @@ int64_t fx_sat(int64_t x, int64_t frac_in, int64_t w, int64_t f, int64_t *counts
     const int64_t lo = -hi - 1;
     const int64_t s = frac_in - f;
     if (s > 0) {
-        x = (x + (((x >> s) & 1) + ((int64_t)1 << (s - 1)) - 1)) >> s; /* round half to even */
+        x = fx_shift_round(x, s);
     } else if (s < 0) {
         const int64_t ls = -s;
         if (x > (hi >> ls)) { counts[site] += 1; return hi; }

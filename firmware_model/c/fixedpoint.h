@@ -15,6 +15,7 @@ int64_t fx_mul(int64_t a, int64_t fa, int64_t b, int64_t fb, int64_t w, int64_t 
 int64_t fx_div(int64_t a, int64_t fa, int64_t b, int64_t fb, int64_t w, int64_t f, int64_t *counts, int64_t site);
 int64_t fx_wrap(int64_t x, int64_t w);
 int64_t fx_div_round(int64_t n, int64_t d);
+int64_t fx_shift_round(int64_t x, int64_t s);
 /* cdef-end */
 
 #endif

@@ -59,18 +59,13 @@ static int64_t transfer_us_sat(int64_t us, int64_t *counts)
     return us;
 }
 
-static int64_t shift_round(int64_t x, int64_t s)
-{
-    return (x + (((x >> s) & 1) + ((int64_t)1 << (s - 1)) - 1)) >> s;
-}
-
 static int64_t advance(int64_t yaw, int64_t omega, int64_t us, const int64_t *fp, int64_t *counts)
 {
     const int64_t fr = fp[NF_W_RATE + 1], wy = fp[NF_W_YAW], fy = fp[NF_W_YAW + 1];
     int64_t k = fx_div_round((int64_t)((uint64_t)us << ADVANCE_FRAC), US_PER_TURN_DEG);
     int64_t inc;
     k = fx_sat(k, ADVANCE_FRAC, 32, ADVANCE_FRAC, counts, X_GAIN);
-    inc = shift_round(omega * k, fr + ADVANCE_FRAC - fy); /* not saturated: exact modulo one turn */
+    inc = fx_shift_round(omega * k, fr + ADVANCE_FRAC - fy); /* not saturated: exact modulo one turn */
     return fx_wrap(yaw + inc, wy);
 }
 

@@ -10,7 +10,7 @@ int64_t survey_yaw_to_ba32(int64_t yaw_raw, int32_t yaw_frac_bits)
 {
     int64_t y;
     if (yaw_frac_bits <= 32) y = (int64_t)((uint64_t)yaw_raw << (32 - yaw_frac_bits));
-    else y = cordic_rshift_round(yaw_raw, yaw_frac_bits - 32);
+    else y = fx_shift_round(yaw_raw, yaw_frac_bits - 32);
     return y & SURVEY_MASK32;
 }
 

@@ -216,7 +216,7 @@ def test_c_moving_average_equals_the_model_on_random_streams():
 
 
 @pytest.mark.parametrize("file,old,new", [
-    ("cordic.c", "return (x + (((x >> s) & 1) + ((int64_t)1 << (s - 1)) - 1)) >> s;",
+    ("fixedpoint.c", "return (x + (((x >> s) & 1) + ((int64_t)1 << (s - 1)) - 1)) >> s;",
      "return (x + ((int64_t)1 << (s - 1))) >> s;"),  # round half up instead of half even
     ("survey.c", "*azi_avg = (azi + fx_div_round(d, n)) & SURVEY_MASK32;",
      "*azi_avg = (azi + d / n) & SURVEY_MASK32;"),  # truncating division

@@ -163,13 +163,13 @@ def test_default_formats_after_a_long_quiet_run():
 
 
 # ---- mutation check: a test-local copy with one wrong primitive must be caught by the same comparison -------------
-HALF_EVEN_SHIFT = "x = (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s"
+HALF_EVEN_SHIFT = "return (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s"  # shift_right_round
 MUTATIONS = {
     "control (no mutation)": ("", ""),
-    "floor instead of half even on a right shift": (HALF_EVEN_SHIFT, "x = x >> s"),
+    "floor instead of half even on a right shift": (HALF_EVEN_SHIFT, "return x >> s"),
     "floor instead of rint in from_float": ("y = np.rint(math.ldexp(v, f))", "y = np.floor(math.ldexp(v, f))"),
     "saturation not counted": ("counts[site] += 1", "counts[site] += 0"),
-    "half up instead of half even on a right shift": (HALF_EVEN_SHIFT, "x = (x + (np.int64(1) << (s - 1))) >> s"),
+    "half up instead of half even on a right shift": (HALF_EVEN_SHIFT, "return (x + (np.int64(1) << (s - 1))) >> s"),
 }
 
 
