@@ -206,24 +206,31 @@ def references(node: NodeLog, ticks: np.ndarray, enc: np.ndarray, schedule: Upda
     return mask & rec, ref, var
 
 
+def _tick_plan(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float, is_top: bool):
+    """What both replays (float filter, fixed firmware) decide per tick before running: (ticks, ticks without a
+    sample, encoder reading, update mask, reference yaw, reference variance, static window, hold)."""
+    ticks = tick_times(node, setup.rate_hz)
+    edges = np.searchsorted(node.t_s, np.concatenate([[2 * ticks[0] - ticks[1]], ticks]), side="right")
+    held = int(np.count_nonzero(np.diff(edges) == 0))
+    enc = encoder_at(node, ticks)
+    mask, ref, var = references(node, ticks, enc, schedule, setup, t_log, is_top)
+    static = (_per_tick(node, ticks, "static") == 1.0) if node.has("static") else ticks < t_log + setup.bias_window_s
+    hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(ticks.size, dtype=bool)
+    return ticks, held, enc, mask, ref, var, static, hold
+
+
 def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float, is_top: bool,
                 hold_gaps: bool = False) -> NodeReplay:
     """Run the firmware over one node's samples (see the module docstring)."""
     if setup.firmware is not None:
         return replay_node_firmware(node, setup, schedule, t_log, is_top, hold_gaps)
-    ticks = tick_times(node, setup.rate_hz)
+    ticks, held, enc, mask, ref, var, static, hold = _tick_plan(node, setup, schedule, t_log, is_top)
     both = np.concatenate([node.gyro_rad_s[:, 2:3], node.accel_m_s2], axis=1)
     avg = average_per_tick(node.t_s, both, ticks, hold_empty=hold_gaps)
-    edges = np.searchsorted(node.t_s, np.concatenate([[2 * ticks[0] - ticks[1]], ticks]), side="right")
-    held = int(np.count_nonzero(np.diff(edges) == 0))
     gyro, force = avg[:, 0], avg[:, 1:]
-    enc = encoder_at(node, ticks)
-    mask, ref, var = references(node, ticks, enc, schedule, setup, t_log, is_top)
     K = ticks.size
     yaw, pvar, bias = np.full(K, np.nan), np.full(K, np.nan), np.full(K, np.nan)
     applied, running = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
-    static = (_per_tick(node, ticks, "static") == 1.0) if node.has("static") else ticks < t_log + setup.bias_window_s
-    hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(K, dtype=bool)
     no_enc = node.encoder_rad is None
     bias_sum, bias_n, kf = np.zeros(1), 0, None
     for k in range(K):
@@ -293,21 +300,15 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
     (``DIRECT_REF``: the recorded references are the firmware's own words after the eq 3.29 advance, so
     ``rint(ref / 2 pi x 2^32)`` and ``rint(var x (180/pi)^2 x 2^F)`` give them back exactly)."""
     cfg = setup.firmware
-    ticks = tick_times(node, setup.rate_hz)
+    ticks, held, enc, mask, ref, var, static, hold = _tick_plan(node, setup, schedule, t_log, is_top)
     gz, n = gyro_tick_counts(node, ticks, cfg, hold_gaps)
     accel = accel_tick_counts(node, ticks, setup.accel_lsb_per_g, hold_gaps)
-    edges = np.searchsorted(node.t_s, np.concatenate([[2 * ticks[0] - ticks[1]], ticks]), side="right")
-    held = int(np.count_nonzero(np.diff(edges) == 0))
-    enc = encoder_at(node, ticks)
-    mask, ref, var = references(node, ticks, enc, schedule, setup, t_log, is_top)
     ref_raw = cfg.encoder_yaw_raw(np.where(mask, ref, 0.0))
     var_raw = np.asarray(fxp.from_float(np.where(mask, var, 0.0) * fk.RAD2_TO_DEG2, cfg.formats.p_yy,
                                         overflow=fxp.Overflow.SATURATE).raw, dtype=np.int64).reshape(-1)
     K = ticks.size
     yaw, pvar, bias = np.full(K, np.nan), np.full(K, np.nan), np.full(K, np.nan)
     applied, running = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
-    static = (_per_tick(node, ticks, "static") == 1.0) if node.has("static") else ticks < t_log + setup.bias_window_s
-    hold = (_per_tick(node, ticks, "hold") == 1.0) if node.has("hold") else np.zeros(K, dtype=bool)
     no_enc = node.encoder_rad is None
     fw = FirmwareLanes(cfg, 1)
     yaw_word = np.zeros(K, np.int64)
