@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -61,7 +60,7 @@ from typing import Any
 from nodesim.errors import NodesimError, ScenarioError
 from nodesim.io.rundir import dumps_json
 from nodesim.scenario.schema import Scenario, load_scenario, parse_scenario
-from nodesim.sweep.spec import RunTask, scenario_keys
+from nodesim.sweep.spec import RunTask, read_toml_file, scenario_keys
 
 TOP_KEYS = {
     "name", "description", "base", "scenario", "realizations", "seed", "trials", "batch", "sampler", "sampler_seed",
@@ -403,13 +402,7 @@ def parse_problem(data: dict, source: str, base_dir: Path) -> Problem:
 def load_problem(path: str | Path) -> Problem:
     """Read and validate an optimisation TOML file."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except OSError as err:
-        raise NodesimError(f"{path}: cannot read optimisation file ({err.strerror})") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise NodesimError(f"{path}: not valid TOML ({err})") from None
-    return parse_problem(data, str(path), path.parent)
+    return parse_problem(read_toml_file(path, "optimisation"), str(path), path.parent)
 
 
 def read_problem(opt: "str | Path | dict | Problem", base_dir: Path | None = None) -> Problem:

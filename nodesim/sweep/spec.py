@@ -273,16 +273,21 @@ def parse_sweep(data: dict, source: str, base_dir: Path) -> SweepSpec:
     )
 
 
+def read_toml_file(path: Path, what: str) -> dict:
+    """The tables of a TOML file; an unreadable or invalid file is a NodesimError naming it (``what``: "sweep",
+    "optimisation")."""
+    try:
+        return tomllib.loads(path.read_bytes().decode("utf-8"))
+    except OSError as err:
+        raise NodesimError(f"{path}: cannot read {what} file ({err.strerror})") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise NodesimError(f"{path}: not valid TOML ({err})") from None
+
+
 def load_sweep(path: str | Path) -> SweepSpec:
     """Read and validate a sweep TOML file."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except OSError as err:
-        raise NodesimError(f"{path}: cannot read sweep file ({err.strerror})") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise NodesimError(f"{path}: not valid TOML ({err})") from None
-    return parse_sweep(data, str(path), path.parent)
+    return parse_sweep(read_toml_file(path, "sweep"), str(path), path.parent)
 
 
 def select_metrics(summary: dict, patterns: tuple) -> dict[str, float]:
