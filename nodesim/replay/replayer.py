@@ -32,7 +32,7 @@ import numpy as np
 from firmware_model import fixed_kernel as fk
 from firmware_model import fixedpoint as fxp
 from firmware_model import node_firmware as nf
-from firmware_model.config import GYRO_SENS_X10, FirmwareConfig
+from firmware_model.config import FirmwareConfig
 from firmware_model.fixed_filter import FixedFormats
 from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import YawFilterConfig
@@ -45,6 +45,7 @@ from nodesim.replay.reader import NodeLog, ReplayLog
 from nodesim.scenario.schema import Scenario
 from nodesim.scenario.schedules import UpdateSchedule
 from nodesim.sensors.encoder import RotaryEncoder
+from nodesim.sensors.chain_imu import GYRO_LSB_PER_DEG_S, ChainImu
 from nodesim.sensors.imu import average_per_tick, sum_per_tick
 from nodesim.units import G0_M_S2
 from firmware_model import node_survey
@@ -68,7 +69,7 @@ class FirmwareSetup:
     noise_source: str = "config"
     formats: FixedFormats | None = None  # fixed filter: its Q formats (filter.fixed_word_bits)
     firmware: FirmwareConfig | None = None  # fixed implementation: the firmware build the chain runs
-    accel_lsb_per_g: float = 16384.0  # the accelerometer's sensitivity (the MPU6500's 2 g range, as the chain reads it)
+    accel_lsb_per_g: float = 16384.0  # the configured accelerometer range's sensitivity (sensor.accel_full_scale_g)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
@@ -87,6 +88,7 @@ class FirmwareSetup:
             noise_source="allan" if noise else "config",
             formats=fixed_formats(scenario),
             firmware=firmware_config(scenario) if f.implementation == "fixed" else None,
+            accel_lsb_per_g=ChainImu.from_scenario(scenario).accel_lsb_per_g,
         )
 
 
@@ -273,7 +275,7 @@ def gyro_tick_counts(node: NodeLog, ticks: np.ndarray, cfg: FirmwareConfig, hold
             raise NodesimError(f"node {node.node_id}: tick {k} (t = {ticks[k]:.6g} s) has no gyro_sum_z / samples "
                                f"(samples >= 1 needed on every tick row)")
         return gz.astype(np.int64), n.astype(np.int64)
-    lsb = GYRO_SENS_X10[cfg.gyro_full_scale_dps] / 10.0
+    lsb = GYRO_LSB_PER_DEG_S[cfg.gyro_full_scale_dps]
     counts = np.clip(np.rint(node.gyro_rad_s[:, 2] * (180.0 / math.pi) * lsb), -32768, 32767).astype(np.int64)
     sums, n = sum_per_tick(node.t_s, counts[:, None], ticks, hold_empty=hold_gaps)
     return sums[:, 0], n
