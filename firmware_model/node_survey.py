@@ -28,7 +28,44 @@ float version's ring buffer that is filling up; state layout :data:`MA_STATE` + 
     A_avg = (A_k + round_he(sum_window wrap32(A_j - A_k) / n)) mod 2^32     (A_k the newest sample)
 
 i.e. the mean of the wrapped differences to the newest sample, added to it: exact integer arithmetic, no
-trigonometry, right across the 0/360 deg seam.  C twin: firmware_model/c/survey.c (same words bit for bit).
+trigonometry, right across the 0/360 deg seam.
+
+Mid-window yaw.  A tick's count sums are the sum of the samples read over [T_(k-1), T_k], so their mean is the
+specific force at the window's middle (for a constant rate exactly its direction: the mean of a vector turning at
+a constant rate over an arc points at the arc's middle), while the filter's yaw word is the yaw at the tick's end
+T_k.  Pairing the two puts A half a tick's rotation off while the string turns (71 deg/s at 1.9 Hz: 18.7 deg).  The
+survey therefore pairs the tick's accelerometer with the yaw at the window's middle, the midpoint of the previous
+and this tick's yaw words on the circle (our first-principles choice; the thesis does not say how its firmware
+pairs them):
+
+    psi_mid = (psi_(k-1) + round_he(wrap32(psi_k - psi_(k-1)) / 2)) mod 2^32        (psi_mid = psi_k at the first tick)
+
+exact for a constant rate (the filter's predict advances psi by (rate - bias) dt per tick) and unambiguous while
+the string turns less than half a turn per tick: the thesis's own Nyquist condition for its 1.9 Hz firmware
+(rotation <= 0.95 Hz, thesis sec 4.2.3); beyond it the pairing aliases, as the survey itself does.  An update at
+tick k moves psi_mid by half its correction (the interpolation between the two posterior estimates).
+
+Alignment offset (thesis sec 4.2.3, digest 5.2: during the slow calibration rotation "the maximum and minimum pitch
+and roll measurements are determined, added and divided by two for subtraction from each subsequent pitch and roll
+reading").  A residual tilt of the sensor frame (thesis table 4.20, sigma 0.0422 deg) adds a constant
+g cos(I) (b, -a) to f'_x, f'_y while the inclination's g sin(I) (cos tau', sin tau') turns with the string; over a
+full turn (max + min) / 2 of each transverse axis is that constant.  In the firmware, over the ticks the driver marks
+``aligning`` (the alignment window):
+
+    m_x = round_he(f'_x 2^8 / n)                      the tick's mean count, Q8 LSB per sample (also m_y)
+    M_x = round_he(sum of the last N m_x / N)        the firmware's N-point moving average (the thesis reads its
+                                                     pitch and roll after its moving-average filter, sec 4.2.3),
+                                                     started empty at the window's first tick
+    max_x, min_x over the ticks whose average is full (N samples; the filling-up averages are noisier)
+    off_x = round_he((max_x + min_x) / 2)            at the first tick after the window (Q8 LSB per sample)
+    f'_x <- f'_x - round_he(off_x n / 2^8)           on that tick and every later one, before the resolution
+
+(likewise y; the 32-point average reduces the noise on the extremes 5.7-fold, the 60-deg arc it spans shrinks the
+swing by sinc, which leaves the midpoint unbiased).  A window with no full average leaves the offset 0.  Limits:
+|f'_x|, |f'_y| <= 2^40 on the window's ticks and |off| n < 2^62 after it (FirmwareError beyond).
+
+Survey state (int64 words, :data:`MA_STATE`, then the rings of I, A, M_x, M_y, N words each; C twin:
+firmware_model/c/survey.c, same words bit for bit).
 """
 
 from __future__ import annotations
@@ -49,12 +86,21 @@ MODES = {"cordic": MODE_CORDIC, "fpu": MODE_FPU}
 SURVEY_NORM_BITS = 28  # cordic mode: the common pre-shift puts max(|f'|) in [2^27, 2^28)
 MASK32 = (1 << 32) - 1
 RAD_TO_BA32_F32 = np.float32(cordic.TURN / (2.0 * math.pi))  # float32(683565275.58...)
-MA_COUNT, MA_HEAD, MA_SUM_I, MA_RING = 0, 1, 2, 3  # moving-average state words; rings of I then A follow
-MA_STATE = ("count", "head", "sum_i")
+MA_STATE = ("count", "head", "sum_i", "prev_yaw", "align", "al_count", "al_head", "al_sum_x", "al_sum_y",
+            "max_x", "min_x", "max_y", "min_y", "off_x", "off_y")
+"""The survey's state words: the I/A moving average (count, head, sum of I), the previous yaw (ba32, -1 before the
+first tick), the alignment (ALIGN_* phase, its average's count, head and sums, the extremes, the offsets in Q8 LSB
+per sample); the rings of I, A, M_x, M_y (N words each) follow."""
+(MA_COUNT, MA_HEAD, MA_SUM_I, MA_PREV_YAW, AL_PHASE, AL_COUNT, AL_HEAD, AL_SUM_X, AL_SUM_Y, AL_MAX_X, AL_MIN_X,
+ AL_MAX_Y, AL_MIN_Y, AL_OFF_X, AL_OFF_Y) = range(len(MA_STATE))
+MA_RING = len(MA_STATE)
+ALIGN_IDLE, ALIGN_COLLECTING, ALIGN_APPLIED = 0, 1, 2  # AL_PHASE: no full average yet, extremes held, offset applied
+ALIGN_FRAC = 8  # fraction bits of the tick-mean counts, their average, extremes and offsets (LSB per sample)
+ALIGN_MAX_SUM = (1 << 40)  # |f'_x|, |f'_y| limit on an alignment tick: |m| <= 2^48, a ring sum of N <= 2^14 < 2^62
 
 
 def ma_state_size(points: int) -> int:
-    return MA_RING + 2 * points
+    return MA_RING + 4 * points
 
 
 @njit(cache=True, inline="always")
@@ -106,9 +152,10 @@ def resolve(fx, fy, fz, yaw32, mode, iterations):
 
 @njit(cache=True)
 def ma_reset(state):
-    state[MA_COUNT] = 0
-    state[MA_HEAD] = 0
-    state[MA_SUM_I] = 0
+    """A node at power-up: empty averages, no previous yaw, no alignment offset."""
+    for i in range(MA_RING):
+        state[i] = 0
+    state[MA_PREV_YAW] = -1
 
 
 @njit(cache=True)
@@ -130,24 +177,99 @@ def ma_push(state, points, inc, azi):
     return div_round(state[MA_SUM_I], n), (azi + div_round(d, n)) & MASK32
 
 
+@njit(cache=True)
+def mid_yaw(state, yaw32):
+    """The yaw at the middle of this tick's sample window from the previous and this tick's yaw words (module
+    docstring); remembers this one."""
+    prev = state[MA_PREV_YAW]
+    state[MA_PREV_YAW] = yaw32
+    if prev < 0:
+        return yaw32
+    return (prev + shift_right_round(wrap32(yaw32 - prev), 1)) & MASK32
+
+
+@njit(cache=True)
+def align_collect(state, points, fx, fy, n):
+    """One alignment-window tick: push the tick-mean x, y counts into the alignment's N-point average and, once it
+    is full, into its extremes (module docstring)."""
+    if abs(fx) > ALIGN_MAX_SUM or abs(fy) > ALIGN_MAX_SUM:
+        raise FirmwareError("survey alignment: an accelerometer sum beyond +/-2^40 in the alignment window")
+    mx, my = div_round(fx * (1 << ALIGN_FRAC), n), div_round(fy * (1 << ALIGN_FRAC), n)
+    head = state[AL_HEAD]
+    rx, ry = MA_RING + 2 * points, MA_RING + 3 * points
+    if state[AL_COUNT] == points:
+        state[AL_SUM_X] -= state[rx + head]
+        state[AL_SUM_Y] -= state[ry + head]
+    else:
+        state[AL_COUNT] += 1
+    state[rx + head], state[ry + head] = mx, my
+    state[AL_SUM_X] += mx
+    state[AL_SUM_Y] += my
+    state[AL_HEAD] = (head + 1) % points
+    if state[AL_COUNT] < points:
+        return
+    ax, ay = div_round(state[AL_SUM_X], points), div_round(state[AL_SUM_Y], points)
+    if state[AL_PHASE] == ALIGN_IDLE:
+        state[AL_MAX_X], state[AL_MIN_X], state[AL_MAX_Y], state[AL_MIN_Y] = ax, ax, ay, ay
+        state[AL_PHASE] = ALIGN_COLLECTING
+    else:
+        state[AL_MAX_X], state[AL_MIN_X] = max(state[AL_MAX_X], ax), min(state[AL_MIN_X], ax)
+        state[AL_MAX_Y], state[AL_MIN_Y] = max(state[AL_MAX_Y], ay), min(state[AL_MIN_Y], ay)
+
+
+@njit(cache=True)
+def align_correction(state, n):
+    """(x, y) count-sum corrections round_he(off n / 2^8) of a tick after the window (0 without an offset); the
+    first such tick turns the extremes into the offsets (module docstring)."""
+    if state[AL_PHASE] == ALIGN_COLLECTING:
+        state[AL_OFF_X] = shift_right_round(state[AL_MAX_X] + state[AL_MIN_X], 1)
+        state[AL_OFF_Y] = shift_right_round(state[AL_MAX_Y] + state[AL_MIN_Y], 1)
+        state[AL_PHASE] = ALIGN_APPLIED
+    if state[AL_PHASE] != ALIGN_APPLIED:
+        return np.int64(0), np.int64(0)
+    ox, oy = state[AL_OFF_X], state[AL_OFF_Y]
+    if (ox != 0 and n > cordic.MAX_INPUT // abs(ox)) or (oy != 0 and n > cordic.MAX_INPUT // abs(oy)):
+        raise FirmwareError("survey alignment: offset x samples beyond 2^62")
+    return shift_right_round(ox * n, ALIGN_FRAC), shift_right_round(oy * n, ALIGN_FRAC)
+
+
+@njit(cache=True)
+def survey_tick(state, points, fx, fy, fz, n, yaw32, aligning, mode, iterations):
+    """One tick of the survey (the C reference's ``survey_tick``): the count sums of n >= 1 samples, the tick's
+    yaw (ba32) and whether it lies in the alignment window -> the moving-averaged (I, A) words (module
+    docstring: alignment offset, mid-window yaw, eqs 1.1-1.3, N-point average)."""
+    if n < 1:
+        raise FirmwareError("survey: a tick with no sample (n < 1)")
+    psi = mid_yaw(state, yaw32)
+    if aligning:
+        align_collect(state, points, fx, fy, n)
+    else:
+        cx, cy = align_correction(state, n)
+        fx, fy = fx - cx, fy - cy
+    i_raw, a_raw = resolve(fx, fy, fz, psi, mode, iterations)
+    return ma_push(state, points, i_raw, a_raw)
+
+
 @njit(cache=True, nogil=True)
-def fixed_surveys(accel_counts, yaw_raw, points, mode, iterations, inc_raw_out, azi_raw_out, yaw_frac_bits=32):
-    """``accel_counts`` (R, K, 3) int64 count sums, ``yaw_raw`` (R, K) int64 yaw words -> the moving-averaged
-    I and A binary angles (R, K) into ``inc_raw_out`` and ``azi_raw_out`` (module docstring); each realization's
-    average starts empty at k = 0."""
+def fixed_surveys(accel_counts, yaw_raw, samples, align_lo, align_hi, points, mode, iterations, inc_raw_out,
+                  azi_raw_out, yaw_frac_bits=32):
+    """``accel_counts`` (R, K, 3) int64 count sums of ``samples`` (K,) samples, ``yaw_raw`` (R, K) int64 yaw
+    words, the alignment window ``align_lo <= k < align_hi`` (empty: no offset) -> the moving-averaged I and A
+    binary angles (R, K) into ``inc_raw_out`` and ``azi_raw_out`` (:func:`survey_tick`); each realization starts
+    from :func:`ma_reset` at k = 0."""
     if points < 1:
         raise FirmwareError("survey: points must be >= 1")
     if mode == MODE_CORDIC and (iterations < cordic.MIN_ITERATIONS or iterations > cordic.MAX_ITERATIONS):
         raise FirmwareError("survey: cordic iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
     R, K = yaw_raw.shape
-    state = np.zeros(MA_RING + 2 * points, dtype=np.int64)
+    state = np.zeros(MA_RING + 4 * points, dtype=np.int64)  # ma_state_size(points)
     for r in range(R):
         ma_reset(state)
         for k in range(K):
             y32 = yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits)
-            i_raw, a_raw = resolve(accel_counts[r, k, 0], accel_counts[r, k, 1], accel_counts[r, k, 2], y32, mode,
-                                   iterations)
-            inc_raw_out[r, k], azi_raw_out[r, k] = ma_push(state, points, i_raw, a_raw)
+            inc_raw_out[r, k], azi_raw_out[r, k] = survey_tick(
+                state, points, accel_counts[r, k, 0], accel_counts[r, k, 1], accel_counts[r, k, 2], samples[k], y32,
+                align_lo <= k < align_hi, mode, iterations)
 
 
 def mode_of(survey_math: str) -> int:

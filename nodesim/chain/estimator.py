@@ -25,6 +25,7 @@ from firmware_model.yaw_filter import (
     advance_reference,
     chain_reference_variance,
 )
+from nodesim.motion.chain_motion import lab_profile
 from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG
 
@@ -93,6 +94,25 @@ def firmware_config(scenario: Scenario) -> FirmwareConfig:
         cordic_iterations=scenario.firmware.cordic_iterations,
         survey_points=scenario.filter.moving_average_points,
     )
+
+
+def alignment_window_s(scenario: Scenario) -> tuple[float, float] | None:
+    """The alignment window [t0, t1) of ``firmware.alignment`` (thesis sec 4.2.3, :mod:`firmware_model.node_survey`):
+    the lab profile's slow calibration rotation, or None (no alignment offset; ``auto``: the slow rotation where the
+    lab profile has at least one slow turn, so that the extremes of a full turn are seen)."""
+    m, mode = scenario.motion, scenario.firmware.alignment
+    if mode == "none" or m.kind != "lab" or (mode == "auto" and m.slow_turns < 1.0):
+        return None
+    slow = next(p for p in lab_profile(scenario).phases if p.name == "slow_rotation")
+    return slow.start_s, slow.end_s
+
+
+def alignment_ticks(window_s: tuple[float, float] | None, t_s: np.ndarray) -> tuple[int, int]:
+    """(lo, hi): the ticks t0 <= t_s[k] < t1 of the alignment window (0, 0 without one)."""
+    if window_s is None:
+        return 0, 0
+    lo, hi = np.searchsorted(t_s, window_s, side="left")
+    return int(lo), int(hi)
 
 
 def timer_us(interval_s) -> np.ndarray:

@@ -29,6 +29,7 @@ from firmware_model.node_survey import fixed_surveys
 from nodesim import threads
 from nodesim.chain import faults
 from nodesim.chain.compiled.surveys import averaged_surveys
+from nodesim.chain.estimator import alignment_ticks, alignment_window_s
 from nodesim.chain.links import LazyStreams, LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
 from nodesim.motion.chain_motion import build_motion
@@ -253,30 +254,34 @@ class Network:
 
 
 def _node_run(node: ChainNode, points: int) -> NodeRun:
-    """Resolve the survey (thesis eqs 1.1-1.3) and apply the firmware moving average from the node's first tick:
-    the fixed firmware (``node.yaw_raw`` set) as the MCU does it, :func:`firmware_model.node_survey.fixed_surveys` on
-    the accelerometer count sums and the yaw word (``[firmware] survey_math``, ``cordic_iterations``); the float
-    filter by :func:`nodesim.chain.compiled.surveys.averaged_surveys`."""
+    """Resolve the survey (thesis eqs 1.1-1.3) and apply the firmware moving average from the node's first tick,
+    with the mid-window yaw and the alignment offset over ``firmware.alignment``'s window
+    (:func:`nodesim.chain.estimator.alignment_window_s`): the fixed firmware (``node.yaw_raw`` set) as the MCU
+    does it, :func:`firmware_model.node_survey.fixed_surveys` on the accelerometer count sums and the yaw word
+    (``[firmware] survey_math``, ``cordic_iterations``); the float filter by
+    :func:`nodesim.chain.compiled.surveys.averaged_surveys`."""
     R, K = node.yaw.shape
     inc = np.full((R, K), np.nan)
     azi = np.full((R, K), np.nan)
     first = int(np.searchsorted(node.sig.t_s, node.timeline.present_from_s))
+    lo, hi = alignment_ticks(alignment_window_s(node.net.scenario), node.sig.t_s[first:])
     if first < K and getattr(node, "yaw_raw", None) is not None:
         # the fixed firmware: survey from the accelerometer count sums and the yaw word, CORDIC or float32
         cfg = node.fw.config
         inc_raw, azi_raw = np.zeros((R, K - first), np.int64), np.zeros((R, K - first), np.int64)
-        accel, yaw_raw = node.sig.accel_counts, node.yaw_raw
+        accel, yaw_raw, n = node.sig.accel_counts, node.yaw_raw, np.ascontiguousarray(node.sig.samples[first:])
         frac = cfg.formats.yaw.frac_bits
 
         def run_fixed(r0: int, r1: int) -> None:
             fixed_surveys(np.ascontiguousarray(accel[r0:r1, first:]), np.ascontiguousarray(yaw_raw[r0:r1, first:]),
-                          points, cfg.survey_mode, cfg.cordic_iterations, inc_raw[r0:r1], azi_raw[r0:r1], frac)
+                          n, lo, hi, points, cfg.survey_mode, cfg.cordic_iterations, inc_raw[r0:r1], azi_raw[r0:r1],
+                          frac)
 
         threads.map_chunks(run_fixed, R)
         inc[:, first:], azi[:, first:] = survey.inclination_rad(inc_raw), survey.azimuth_rad(azi_raw)
     elif first < K:
         def run(r0: int, r1: int) -> None:
-            averaged_surveys(node.sig.specific_force[r0:r1, first:], node.yaw[r0:r1, first:], points,
+            averaged_surveys(node.sig.specific_force[r0:r1, first:], node.yaw[r0:r1, first:], lo, hi, points,
                              inc[r0:r1, first:], azi[r0:r1, first:])
 
         threads.map_chunks(run, R)
@@ -308,8 +313,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         ref_yaw_rad=node.ref_yaw,
         ref_var_rad2=node.ref_var,
         present_from_s=node.timeline.present_from_s,
-        adc_clipped_samples=(None if node.sig.gyro_clipped_samples is None
-                             else node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples),
+        adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
     )
 
 

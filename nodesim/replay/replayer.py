@@ -10,8 +10,9 @@ Per node (each node of a multi-node log is replayed with the references it recor
   4. the first tick after it starts the filter from the encoder yaw and the mean bias (no time update in
      that tick); every later tick runs the time update with the tick's gyro mean, then a measurement update
      where the schedule gives a reference, except the ticks marked ``hold`` (state kept, nothing done);
-  5. the survey: inclination and azimuth from the tick-averaged specific force and the yaw (thesis eqs
-     1.1-1.3), then the firmware's N-point moving average.
+  5. the survey: inclination and azimuth from the tick-averaged specific force and the yaw at the middle of the
+     tick's window (thesis eqs 1.1-1.3), the alignment offset of the configuration's ``firmware.alignment``
+     window (at t_log + its times), then the firmware's N-point moving average.
 This is the convention of the chain simulation's node process (``nodesim.chain.node_process``), so a log it
 recorded replays bit for bit.  Schedules:
   - ``recorded``: the updates the log records (``ref_update``, with ``ref_yaw`` and ``ref_var``);
@@ -38,7 +39,8 @@ from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import YawFilterConfig
 from nodesim.sensors.allan import AllanNoise, overlapping_adev, read_noise
 from nodesim.chain.compiled.surveys import averaged_surveys
-from nodesim.chain.estimator import FirmwareLanes, filter_config, firmware_config, fixed_formats
+from nodesim.chain.estimator import (FirmwareLanes, alignment_ticks, alignment_window_s, filter_config,
+                                    firmware_config, fixed_formats)
 from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
 from nodesim.replay.reader import NodeLog, ReplayLog
@@ -70,6 +72,7 @@ class FirmwareSetup:
     formats: FixedFormats | None = None  # fixed filter: its Q formats (filter.fixed_word_bits)
     firmware: FirmwareConfig | None = None  # fixed implementation: the firmware build the chain runs
     accel_lsb_per_g: float = 16384.0  # the configured accelerometer range's sensitivity (sensor.accel_full_scale_g)
+    alignment_window_s: tuple[float, float] | None = None  # firmware.alignment's window after the log's start
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, noise: AllanNoise | None = None) -> "FirmwareSetup":
@@ -89,6 +92,7 @@ class FirmwareSetup:
             formats=fixed_formats(scenario),
             firmware=firmware_config(scenario) if f.implementation == "fixed" else None,
             accel_lsb_per_g=ChainImu.from_scenario(scenario).accel_lsb_per_g,
+            alignment_window_s=alignment_window_s(scenario),
         )
 
 
@@ -221,6 +225,12 @@ def _tick_plan(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | N
     return ticks, held, enc, mask, ref, var, static, hold
 
 
+def _alignment_ticks(setup: FirmwareSetup, t_log: float, ticks: np.ndarray) -> tuple[int, int]:
+    """The alignment window's ticks (:func:`nodesim.chain.estimator.alignment_ticks`) at ``t_log`` + its times."""
+    w = setup.alignment_window_s
+    return alignment_ticks(None if w is None else (t_log + w[0], t_log + w[1]), ticks)
+
+
 def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | None, t_log: float, is_top: bool,
                 hold_gaps: bool = False) -> NodeReplay:
     """Run the firmware over one node's samples (see the module docstring)."""
@@ -256,8 +266,9 @@ def replay_node(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSchedule | 
     have = np.isfinite(yaw)
     if have.any():
         first = int(np.argmax(have))
-        averaged_surveys(np.ascontiguousarray(force[None, first:]), yaw[None, first:], setup.moving_average_points,
-                         inc[None, first:], azi[None, first:])  # what a chain run reports, computed the same way
+        lo, hi = _alignment_ticks(setup, t_log, ticks[first:])
+        averaged_surveys(np.ascontiguousarray(force[None, first:]), yaw[None, first:], lo, hi,
+                         setup.moving_average_points, inc[None, first:], azi[None, first:])  # as a chain run does
     return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held,
                       kf.overflow_counts if kf is not None else {})
 
@@ -333,8 +344,10 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
         yaw_word[k] = fw.yaw_raw[0]
     # the survey as the chain's fixed firmware resolves it (nodesim.chain.network._node_run)
     inc_raw, azi_raw = np.zeros((1, K), np.int64), np.zeros((1, K), np.int64)
-    node_survey.fixed_surveys(np.ascontiguousarray(accel[None]), yaw_word[None], setup.moving_average_points,
-                              cfg.survey_mode, cfg.cordic_iterations, inc_raw, azi_raw, cfg.formats.yaw.frac_bits)
+    lo, hi = _alignment_ticks(setup, t_log, ticks)
+    node_survey.fixed_surveys(np.ascontiguousarray(accel[None]), yaw_word[None], n, lo, hi,
+                              setup.moving_average_points, cfg.survey_mode, cfg.cordic_iterations, inc_raw, azi_raw,
+                              cfg.formats.yaw.frac_bits)
     inc, azi = node_survey.inclination_rad(inc_raw)[0], node_survey.azimuth_rad(azi_raw)[0]
     return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held, fw.overflow_counts)
 

@@ -136,7 +136,8 @@ MPU6500_ACCEL_DATASHEET_PSD_UG = 300.0
 
 
 class SensorSection(_Section):
-    """Simple IMU and encoder stand-in (z gyro, accelerometer triad, incremental encoder)."""
+    """The node IMU every chain node reads (the MPU6500 count model of nodesim.sensors.chain_imu: 3-axis gyro and
+    accelerometer, int16 counts summed per firmware tick) and the incremental encoder."""
 
     gyro_arw_deg_per_sqrt_s: float = Field(7.38e-3, ge=0.0, le=10.0, description="thesis table V.1, z axis")
     gyro_turn_on_bias_deg_s: float = Field(0.5, ge=-250.0, le=250.0, description="removed by the static window")
@@ -179,14 +180,6 @@ class SensorSection(_Section):
         0.0422, ge=0.0, le=10.0, description="per node and realization, residual static tilt of the sensor frame "
         "about each transverse axis after calibration (sigma): thesis table 4.20, MPU6500 turn-table "
         "calibration, standard deviation 0.0422 deg")
-    model: Literal["tick_averaged", "mpu6500_counts"] = Field(
-        "tick_averaged", description="what the chain's nodes read: 'tick_averaged' (the z-gyro and accelerometer "
-        "tick means of nodesim.sensors.tick_averaged, requantised to per-tick int16 count sums as 34 samples at "
-        "the configured ranges for the fixed firmware) or 'mpu6500_counts' (the sensor-rate MPU6500 count model "
-        "of nodesim.sensors.chain_imu: 3 axes, clipping, residual tilt; sampling, sample_rate_hz and "
-        "residual_tilt_sigma_deg apply to it only). Not yet the default: the survey pairs the tick-mean "
-        "accelerometer with the tick-end yaw (half a tick of lag while rotating) and the lab procedure's "
-        "alignment offset, which removes the residual tilt, is not modelled")
 
 
 class FilterSection(_Section):
@@ -210,6 +203,13 @@ class FirmwareSection(_Section):
     survey_math: Literal["cordic", "fpu"] = Field(
         "cordic", description="survey trigonometry: integer CORDIC (firmware_model.cordic) or float32 ('fpu')")
     cordic_iterations: int = Field(24, ge=8, le=30, description="CORDIC iterations (angle error ~ 2^-(n-1) rad)")
+    alignment: Literal["auto", "slow_rotation", "none"] = Field(
+        "auto", description="the lab procedure's alignment offset (thesis sec 4.2.3; firmware_model.node_survey): "
+        "'slow_rotation' takes (max + min) / 2 of the moving-averaged transverse accelerometer axes over the lab "
+        "profile's slow calibration rotation (motion.kind = 'lab', motion.slow_turns >= 1) and subtracts it from "
+        "every later reading; 'none' leaves the residual tilt (sensor.residual_tilt_sigma_deg) as an error; "
+        "'auto': slow_rotation where the lab profile has at least one slow turn, else none (drilling: none, the "
+        "drilling programme has no calibration rotation). Applies to the float and the fixed implementation")
 
 
 class ScheduleSection(_Section):
@@ -312,6 +312,11 @@ class Scenario(_Section):
                 f"the encoder request, reply and processing must fit in one firmware tick "
                 f"(allowed: 2 x link_delay_s + processing_s < {dt:.4g} s at {self.chain.firmware_rate_hz} Hz)"
             )
+        if self.firmware.alignment == "slow_rotation" and (self.motion.kind != "lab" or self.motion.slow_turns < 1.0):
+            raise ValueError(
+                f"firmware.alignment = 'slow_rotation' needs the lab profile's slow rotation of at least one turn "
+                f"(motion.kind = {self.motion.kind!r}, motion.slow_turns = {self.motion.slow_turns}); allowed: "
+                "'auto', 'none', or a lab motion with slow_turns >= 1")
         if self.motion.kind == "drilling":
             needed = self.motion.drilling_duration_s(self.chain.nodes)
             if self.simulation.duration_s < needed:

@@ -170,44 +170,81 @@ def test_c_survey_resolution_equals_the_model(cases):
         assert (i[0], a[0]) == survey.resolve(fx, fy, fz, y32, mode, n), (fx, fy, fz, yaw, n, mode)
 
 
-def run_c(lib, ffi, accel, yaw, points, mode, n, yaw_frac_bits):
+def run_c(lib, ffi, accel, yaw, samples, lo, hi, points, mode, n, yaw_frac_bits):
+    """The C survey_run over one stream: (return code, I words, A words, final state)."""
     K = yaw.size
     state = np.zeros(survey.ma_state_size(points), np.int64)
     inc, azi = np.zeros(K, np.int64), np.zeros(K, np.int64)
     buf = lambda v: ffi.from_buffer("int64_t[]", v)  # noqa: E731
-    assert lib.survey_run(buf(np.ascontiguousarray(accel)), buf(np.ascontiguousarray(yaw)), K, points, mode, n,
-                          yaw_frac_bits, buf(state), buf(inc), buf(azi)) == 0
-    return inc, azi
+    rc = lib.survey_run(buf(np.ascontiguousarray(accel)), buf(np.ascontiguousarray(yaw)),
+                        buf(np.ascontiguousarray(samples)), K, lo, hi, points, mode, n, yaw_frac_bits, buf(state),
+                        buf(inc), buf(azi))
+    return rc, inc, azi, state
+
+
+def run_model(accel, yaw, samples, lo, hi, points, mode, n, yaw_frac_bits):
+    """The model over one stream, tick by tick (survey_tick, as fixed_surveys): (I, A, final state), or None if it
+    raised FirmwareError."""
+    K = yaw.size
+    state = np.zeros(survey.ma_state_size(points), np.int64)
+    inc, azi = np.zeros(K, np.int64), np.zeros(K, np.int64)
+    survey.ma_reset(state)
+    try:
+        for k in range(K):
+            inc[k], azi[k] = survey.survey_tick(state, points, accel[k, 0], accel[k, 1], accel[k, 2], samples[k],
+                                                survey.yaw_to_ba32(yaw[k], yaw_frac_bits), lo <= k < hi, mode, n)
+    except FirmwareError:
+        return None
+    return inc, azi, state
 
 
 def random_stream(rng, K):
-    """A node's survey stream: near-vertical to horizontal tilt, noisy count sums, a turning yaw; sometimes
-    extreme or zero samples."""
+    """A node's survey stream: near-vertical to horizontal tilt, noisy count sums of 1..40 samples with a
+    transverse offset (the residual tilt), a turning yaw; sometimes extreme or zero samples."""
     tilt = rng.uniform(0.0, math.pi)
     tf = rng.uniform(-math.pi, math.pi) + np.cumsum(rng.normal(0, 0.3, K))
-    g = 34 * 16384 * rng.uniform(0.5, 2.0)
-    f = np.stack([g * math.sin(tilt) * np.cos(tf), g * math.sin(tilt) * np.sin(tf), np.full(K, g * math.cos(tilt))], -1)
+    samples = rng.integers(1, 41, K) if rng.random() < 0.5 else np.full(K, 34)
+    g = samples * 16384 * rng.uniform(0.5, 2.0)
+    off = rng.normal(0, 300, 2)
+    f = np.stack([g * math.sin(tilt) * np.cos(tf) + off[0] * samples, g * math.sin(tilt) * np.sin(tf) + off[1] * samples,
+                  g * math.cos(tilt)], -1)
     f = np.rint(f + rng.normal(0, rng.uniform(0, 3000), (K, 3))).astype(np.int64)
-    odd = rng.random(K) < 0.05
-    f[odd] = rng.choice([0, 1, -1, 2**62 - 1, -(2**62 - 1)], (int(odd.sum()), 3))
+    odd = rng.random(K) < (0.05 if rng.random() < 0.5 else 0.0)
+    f[odd] = rng.choice([0, 1, -1, 2**40, -2**40, 2**40 + 1, 2**62 - 1, -(2**62 - 1)], (int(odd.sum()), 3))
     yaw = rng.integers(-2**31, 2**31) + np.cumsum(rng.integers(-2**28, 2**28, K))
-    return f, yaw
+    return f, yaw, samples.astype(np.int64)
 
 
 def sweep_streams(lib, ffi, n_streams, seed):
+    """Random streams (lengths, average lengths, modes, iterations, yaw formats, alignment windows): every I and
+    A word and the final state identical, or both refuse (the model raises, C returns an error code)."""
     rng = np.random.default_rng(seed)
+    refused = aligned = 0
     for _ in range(n_streams):
-        K, points = int(rng.integers(1, 120)), int(rng.choice([1, 2, 5, 32, 33, 100]))
+        K, points = int(rng.integers(1, 160)), int(rng.choice([1, 2, 5, 32, 33, 100]))
         mode, n = int(rng.integers(0, 2)), int(rng.integers(cordic.MIN_ITERATIONS, cordic.MAX_ITERATIONS + 1))
         fb = int(rng.choice([32, 24, 16, 34]))
-        f, yaw = random_stream(rng, K)
+        f, yaw, samples = random_stream(rng, K)
+        lo, hi = sorted(int(v) for v in rng.integers(-5, K + 5, 2)) if rng.random() < 0.8 else (0, 0)
         yaw = (yaw >> max(0, 32 - fb)) if fb <= 32 else yaw << (fb - 32)
         yaw = yaw & ((1 << min(fb, 62)) - 1)
-        inc_m, azi_m = np.zeros((1, K), np.int64), np.zeros((1, K), np.int64)
-        survey.fixed_surveys(f[None], yaw[None], points, mode, n, inc_m, azi_m, fb)
-        inc_c, azi_c = run_c(lib, ffi, f, yaw, points, mode, n, fb)
-        np.testing.assert_array_equal(inc_c, inc_m[0])
-        np.testing.assert_array_equal(azi_c, azi_m[0])
+        model = run_model(f, yaw, samples, lo, hi, points, mode, n, fb)
+        rc, inc_c, azi_c, state_c = run_c(lib, ffi, f, yaw, samples, lo, hi, points, mode, n, fb)
+        if model is None:
+            assert rc != 0
+            refused += 1
+            continue
+        assert rc == 0
+        inc_m, azi_m, state_m = model
+        np.testing.assert_array_equal(inc_c, inc_m)
+        np.testing.assert_array_equal(azi_c, azi_m)
+        np.testing.assert_array_equal(state_c, state_m)
+        aligned += int(state_m[survey.AL_PHASE] == survey.ALIGN_APPLIED)
+        inc_b, azi_b = np.zeros((1, K), np.int64), np.zeros((1, K), np.int64)
+        survey.fixed_surveys(f[None], yaw[None], samples, lo, hi, points, mode, n, inc_b, azi_b, fb)
+        np.testing.assert_array_equal(inc_b[0], inc_m)  # the batched loop runs the same ticks
+        np.testing.assert_array_equal(azi_b[0], azi_m)
+    assert refused > 0 and aligned > n_streams // 10  # both branches exercised
 
 
 def test_c_moving_average_equals_the_model_on_random_streams():
@@ -220,6 +257,10 @@ def test_c_moving_average_equals_the_model_on_random_streams():
      "return (x + ((int64_t)1 << (s - 1))) >> s;"),  # round half up instead of half even
     ("survey.c", "*azi_avg = (azi + fx_div_round(d, n)) & SURVEY_MASK32;",
      "*azi_avg = (azi + d / n) & SURVEY_MASK32;"),  # truncating division
+    ("survey.c", "state[SURVEY_AL_OFF_X] = fx_shift_round(state[SURVEY_AL_MAX_X] + state[SURVEY_AL_MIN_X], 1);",
+     "state[SURVEY_AL_OFF_X] = (state[SURVEY_AL_MAX_X] + state[SURVEY_AL_MIN_X]) >> 1;"),  # floor, not half even
+    ("survey.c", "return (prev + fx_shift_round(cordic_wrap32(yaw32 - prev), 1)) & SURVEY_MASK32;",
+     "return (prev + cordic_wrap32(yaw32 - prev) / 2) & SURVEY_MASK32;"),  # truncating mid-window yaw
 ])
 def test_a_broken_c_rounding_is_caught(tmp_path, file, old, new):
     ffi, lib = c_reference.load_modified({file: (old, new)}, tmp_path)

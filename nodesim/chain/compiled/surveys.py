@@ -11,6 +11,13 @@ of them, as ``cumsum`` forms them).  The unit vector of A comes from rotating th
 (one atan2 and one remainder fewer per tick: ~30 % of this pass).  So I is the numpy functions' value bit for
 bit, the averaged A agrees with them to rounding (an angle error of ~1e-16 / |mean unit vector|), and chain
 runs and replays, which both call this, agree bit for bit: tests/nodesim/chain/test_surveys.py.
+
+Before the resolution, the float form of the fixed firmware's two steps (:mod:`firmware_model.node_survey`, its
+docstring gives the reasons): psi is the yaw at the middle of the tick's sample window,
+    psi_mid = psi_(k-1) + remainder(psi_k - psi_(k-1), 2 pi) / 2      (psi_k at the first tick),
+and, with an alignment window align_lo <= k < align_hi (thesis sec 4.2.3), the offset (max + min) / 2 of the
+N-point moving average of f'_x and of f'_y over the window's full averages is subtracted from f'_x, f'_y on every
+tick after the window.
 """
 
 from __future__ import annotations
@@ -32,19 +39,46 @@ def _unit_azimuth(fx: float, fy: float, h: float, psi: float) -> tuple[float, fl
 
 
 @njit(cache=True, nogil=True)
-def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, points: int, inc_out: np.ndarray,
-                     azi_out: np.ndarray) -> None:
-    """``force`` (R, K, 3) sensor-frame specific force, ``yaw_rad`` (R, K) -> moving-averaged inclination and
-    azimuth (R, K) [rad] into ``inc_out`` and ``azi_out`` (module docstring)."""
+def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, align_lo: int, align_hi: int, points: int,
+                     inc_out: np.ndarray, azi_out: np.ndarray) -> None:
+    """``force`` (R, K, 3) sensor-frame specific force, ``yaw_rad`` (R, K) tick-end yaw, the alignment window
+    ``align_lo <= k < align_hi`` (empty: no offset) -> moving-averaged inclination and azimuth (R, K) [rad] into
+    ``inc_out`` and ``azi_out`` (module docstring)."""
     R, K = yaw_rad.shape
     two_pi = 2.0 * math.pi
     sums = np.empty((3, K))  # running sums of I, cos A, sin A
+    ring = np.empty((2, points))  # the alignment's moving average of f'_x, f'_y
     for r in range(R):
         s_i = s_c = s_s = 0.0
+        a_n, a_head, a_x, a_y, full = 0, 0, 0.0, 0.0, False
+        max_x = min_x = max_y = min_y = 0.0
         for k in range(K):
             fx, fy, fz = force[r, k, 0], force[r, k, 1], force[r, k, 2]
+            if align_lo <= k < align_hi:
+                if a_n == points:
+                    a_x -= ring[0, a_head]
+                    a_y -= ring[1, a_head]
+                else:
+                    a_n += 1
+                ring[0, a_head], ring[1, a_head] = fx, fy
+                a_x += fx
+                a_y += fy
+                a_head = (a_head + 1) % points
+                if a_n == points:
+                    mx, my = a_x / points, a_y / points
+                    if not full:
+                        max_x, min_x, max_y, min_y, full = mx, mx, my, my, True
+                    else:
+                        max_x, min_x = max(max_x, mx), min(min_x, mx)
+                        max_y, min_y = max(max_y, my), min(min_y, my)
+            elif full:
+                fx, fy = fx - 0.5 * (max_x + min_x), fy - 0.5 * (max_y + min_y)
+            psi = yaw_rad[r, k]
+            if k > 0:
+                prev = yaw_rad[r, k - 1]
+                psi = prev + 0.5 * (np.remainder(psi - prev + math.pi, two_pi) - math.pi)
             h = np.hypot(fx, fy)
-            cos_a, sin_a = _unit_azimuth(fx, fy, h, yaw_rad[r, k])
+            cos_a, sin_a = _unit_azimuth(fx, fy, h, psi)
             s_i += np.arctan2(h, fz)
             s_c += cos_a
             s_s += sin_a

@@ -67,7 +67,6 @@ FIXED = {  # the bit-exact fixed-point filter (its overflow counting is checked 
     "fixed, dead node and fallback": {**CASES["dead node, fallback"], "filter.implementation": "fixed"},
     "fixed, every tick, extrapolated": {**CASES["every tick, extrapolated rate"], "filter.implementation": "fixed"},
     "fixed, 16-bit word": {**LOSSY, "filter.implementation": "fixed", "filter.fixed_word_bits": 16},
-    "fixed, MPU6500 count model": {**LOSSY, "filter.implementation": "fixed", "sensor.model": "mpu6500_counts"},
 }
 
 

@@ -2,7 +2,10 @@
 really feeds it (issue 19, must-show): every bundled lab scenario, every node, 4 realizations, the whole run.
 The SimPy engine's firmware calls (nodesim.chain.estimator.FirmwareLanes.tick) are recorded - inputs and the
 state after each tick - and every lane's input stream is replayed through the C node_firmware_run from a fresh
-lane; each state word after each tick, each output and the overflow counters must be identical."""
+lane; each state word after each tick, each output and the overflow counters must be identical.  The survey
+(firmware_model/c/survey.c survey_run: mid-window yaw, alignment offset over the slow rotation, resolution, moving
+average) is run in C on each lane's accelerometer count sums and yaw words and must give the I and A words the run
+reported."""
 
 from __future__ import annotations
 
@@ -13,8 +16,9 @@ import pytest
 
 from firmware_model import c_reference
 from firmware_model import node_firmware as nf
+from firmware_model import node_survey as survey
 from nodesim.api import simulate
-from nodesim.chain.estimator import FirmwareLanes, yaw_rad_of_raw
+from nodesim.chain.estimator import FirmwareLanes, alignment_ticks, alignment_window_s, yaw_rad_of_raw
 
 ROOT = Path(__file__).resolve().parents[3]
 LAB = sorted((ROOT / "scenarios" / "lab").glob("*.toml"))
@@ -61,3 +65,22 @@ def test_c_reference_equals_the_model_on_every_lab_node_stream(path, traced):
         # the recorded stream is what the run reported: its last yaw is the traced state's
         np.testing.assert_array_equal(yaw_rad_of_raw(states[:, -1, 0], fw.fparams), node.yaw_est_rad[:, -1])
         assert (inputs[:, :, nf.IN_REF] != nf.NO_REF).any(), "the stream exercises updates"
+        _survey_in_c(ffi, lib, buf, fw.config, run.scenario, node)
+
+
+def _survey_in_c(ffi, lib, buf, cfg, scenario, node):
+    """The C survey over the node's lanes: the I and A words the run reported (floats of exact binary angles)."""
+    first = int(np.searchsorted(node.t_s, node.present_from_s))
+    lo, hi = alignment_ticks(alignment_window_s(scenario), node.t_s[first:])
+    assert hi - lo > 300  # the lab profile's slow rotation is the alignment window
+    K, points = node.t_s.size - first, cfg.survey_points
+    samples = np.ascontiguousarray(node.samples[first:])
+    for r in range(node.yaw_est_rad.shape[0]):
+        yaw = np.ascontiguousarray(cfg.encoder_yaw_raw(node.yaw_est_rad[r, first:]))  # the yaw words, exactly
+        accel = np.ascontiguousarray(node.accel_counts[r, first:])
+        state, inc, azi = np.zeros(survey.ma_state_size(points), np.int64), np.zeros(K, np.int64), np.zeros(K, np.int64)
+        assert lib.survey_run(buf(accel), buf(yaw), buf(samples), K, lo, hi, points, cfg.survey_mode,
+                              cfg.cordic_iterations, cfg.formats.yaw.frac_bits, buf(state), buf(inc), buf(azi)) == 0
+        assert state[survey.AL_PHASE] == survey.ALIGN_APPLIED
+        np.testing.assert_array_equal(survey.inclination_rad(inc), node.inclination_rad[r, first:])
+        np.testing.assert_array_equal(survey.azimuth_rad(azi), node.azimuth_rad[r, first:])

@@ -13,7 +13,7 @@ from firmware_model.config import FirmwareConfig
 from firmware_model.errors import FirmwareError
 from nodesim.api import simulate
 from nodesim.chain.compiled.surveys import averaged_surveys
-from nodesim.chain.estimator import firmware_config
+from nodesim.chain.estimator import alignment_ticks, alignment_window_s, firmware_config
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import load_scenario
 
@@ -29,13 +29,16 @@ def survey_difference_rms_deg(survey_math: str = "cordic", iterations: int = 24,
     run = simulate(LAB, realizations=realizations, **{"filter.implementation": "fixed",
                                                       "firmware.survey_math": survey_math,
                                                       "firmware.cordic_iterations": iterations})
+    window = alignment_window_s(run.scenario)
+    assert window is not None  # the lab profile's alignment offset is in both surveys
     d_azi, d_inc = [], []
     for n in run.chain.nodes:
         first = int(np.searchsorted(n.t_s, n.filter_start_s))
         R, K = n.yaw_est_rad.shape
         inc, azi = np.zeros((R, K - first)), np.zeros((R, K - first))
+        lo, hi = alignment_ticks(window, n.t_s[first:])
         averaged_surveys(np.ascontiguousarray(n.specific_force[:, first:]), np.ascontiguousarray(n.yaw_est_rad[:, first:]),
-                         POINTS, inc, azi)
+                         lo, hi, POINTS, inc, azi)
         d_azi.append(np.angle(np.exp(1j * (n.azimuth_rad[:, first + POINTS:] - azi[:, POINTS:]))).ravel())
         d_inc.append((n.inclination_rad[:, first + POINTS:] - inc[:, POINTS:]).ravel())
     rms = lambda d: float(np.degrees(np.sqrt(np.mean(np.concatenate(d) ** 2))))  # noqa: E731

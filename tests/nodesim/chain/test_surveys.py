@@ -7,11 +7,18 @@ from firmware_model.survey_resolution import circular_moving_average, resolve_su
 from nodesim.chain.compiled.surveys import averaged_surveys
 
 
+def mid_window_yaw(yaw):
+    """The oracle of the survey's yaw: the circular midpoint of the previous and this tick's yaw (the first as is)."""
+    mid = yaw.copy()
+    mid[:, 1:] = yaw[:, :-1] + 0.5 * (np.remainder(yaw[:, 1:] - yaw[:, :-1] + np.pi, 2 * np.pi) - np.pi)
+    return mid
+
+
 def _both(force, yaw, points):
     R, K = yaw.shape
     inc, azi = np.empty((R, K)), np.empty((R, K))
-    averaged_surveys(force, yaw, points, inc, azi)
-    i_raw, a_raw = resolve_survey(force, yaw)
+    averaged_surveys(force, yaw, 0, 0, points, inc, azi)
+    i_raw, a_raw = resolve_survey(force, mid_window_yaw(yaw))
     return inc, azi, trailing_moving_average(i_raw, points), circular_moving_average(a_raw, points), a_raw
 
 
@@ -40,7 +47,45 @@ def test_a_vertical_force_keeps_atan2s_convention():
     """No horizontal component (h = 0): toolface atan2(0, 0) = 0 or pi by the signs of the zeros, as numpy."""
     force = np.array([[[0.0, 0.0, 9.8], [-0.0, 0.0, 9.8], [0.0, -0.0, -9.8], [1e-3, 0.0, 9.8]]])
     yaw = np.array([[0.3, 0.3, 5.0, 0.3]])
-    inc, azi, inc_np, azi_np, _ = _both(force, yaw, 1)
+    inc, azi, inc_np, azi_np, _ = _both(force, yaw, 1)  # mid-window yaw: 0.3, 0.3, ~(0.3 + 5) / 2 ...
     np.testing.assert_array_equal(inc, inc_np)
     np.testing.assert_allclose(azi, azi_np, rtol=0, atol=1e-15)
     np.testing.assert_allclose(azi[0, :2], [0.3, 0.3 + np.pi], rtol=0, atol=1e-15)
+
+
+def test_the_mid_window_yaw_removes_the_half_tick_lag_of_a_turning_string():
+    """A string turning at a constant rate: the tick-mean force points at the middle of the tick's arc; paired with
+    the mid-window yaw the azimuth is exact, paired with the tick-end yaw it would be off by half a tick's turn."""
+    K, dpsi, inc_t, azi_t = 60, np.radians(37.4), np.radians(2.0), np.radians(45.0)
+    psi_end = dpsi * np.arange(1, K + 1)
+    tau_mid = azi_t - (psi_end - dpsi / 2)  # toolface at the arc's middle
+    g = 9.81 * np.sinc(dpsi / 2 / np.pi)  # the mean of a turning vector is shorter, not turned
+    force = np.stack([g * np.sin(inc_t) * np.cos(tau_mid), g * np.sin(inc_t) * np.sin(tau_mid),
+                      np.full(K, 9.81 * np.cos(inc_t))], -1)[None]
+    inc, azi = np.empty((1, K)), np.empty((1, K))
+    averaged_surveys(force, psi_end[None], 0, 0, 1, inc, azi)
+    err = np.degrees(np.angle(np.exp(1j * (azi[0, 1:] - azi_t))))
+    assert np.abs(err).max() < 1e-9
+    assert abs(np.degrees(np.angle(np.exp(1j * (azi[0, 0] - azi_t)))) - 18.7) < 0.01  # first tick: no previous yaw
+
+
+@pytest.mark.parametrize("points", [1, 8, 32])
+def test_the_alignment_offset_removes_a_constant_transverse_offset(points):
+    """Thesis 4.2.3: over a full slow turn (max + min) / 2 of each transverse axis is the sensor-frame offset; it is
+    subtracted from every tick after the window (and only after it)."""
+    K, lo, hi = 900, 100, 500
+    tau = np.concatenate([np.zeros(lo), np.radians(1.9) * np.arange(hi - lo), np.full(K - hi, 0.7)])
+    off = np.array([3e-3, -2e-3])
+    f = np.stack([0.34 * np.cos(tau) + off[0], 0.34 * np.sin(tau) + off[1], np.full(K, 9.8)], -1)[None]
+    yaw = np.zeros((1, K))
+    inc, azi, inc0, azi0 = (np.empty((1, K)) for _ in range(4))
+    averaged_surveys(f, yaw, lo, hi, points, inc, azi)
+    averaged_surveys(f, yaw, 0, 0, points, inc0, azi0)
+    np.testing.assert_array_equal(azi[:, :hi], azi0[:, :hi])  # nothing changes before the window ends
+    clean = np.stack([0.34 * np.cos(tau), 0.34 * np.sin(tau), np.full(K, 9.8)], -1)[None]
+    ic, ac = np.empty((1, K)), np.empty((1, K))
+    averaged_surveys(clean, yaw, 0, 0, points, ic, ac)
+    late = slice(hi + points, None)
+    before = np.abs(np.angle(np.exp(1j * (azi0[:, late] - ac[:, late])))).max()
+    after = np.abs(np.angle(np.exp(1j * (azi[:, late] - ac[:, late])))).max()
+    assert before > 5e-3 and after < 2e-3 * before  # the offset's 0.6 deg is gone to the sinc of the arc

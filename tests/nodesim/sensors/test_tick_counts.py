@@ -123,7 +123,7 @@ def test_defaults_cite_the_thesis():
 
 
 def _run(**over):
-    s = Scenario().with_overrides(**{"sensor.model": "mpu6500_counts", "simulation.realizations": 4, "simulation.duration_s": 120.0,
+    s = Scenario().with_overrides(**{"simulation.realizations": 4, "simulation.duration_s": 120.0,
                                      "metrics.window_start_s": 60.0, "metrics.window_end_s": 120.0, **over})
     return s, simulate_chain(s)
 
@@ -151,7 +151,7 @@ def test_azimuth_error_grows_with_the_residual_tilt():
     """A sensor-frame tilt eps moves the measured high side by eps: at 2 deg inclination the azimuth error is about
     eps / sin(2 deg) (thesis eq 1.3), so the RMS azimuth error grows with residual_tilt_sigma_deg and at the thesis's
     0.0422 deg (table 4.20) dominates the accelerometer-noise floor (~0.085 deg).  Window well after the rotation."""
-    quiet = {"sensor.model": "mpu6500_counts", "simulation.realizations": 16, "simulation.duration_s": 300.0, "motion.slow_turns": 0.0,
+    quiet = {"simulation.realizations": 16, "simulation.duration_s": 300.0, "motion.slow_turns": 0.0,
              "motion.fast_turns": 0.0, "metrics.window_start_s": 150.0, "metrics.window_end_s": 300.0}
     azi = []
     for tilt in (0.0, 0.0422, 0.2):
