@@ -34,10 +34,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from firmware_model.config import GYRO_SENS_X10
 
 from nodesim.motion.timelines import ChainMotion
+from nodesim import threads
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
 from nodesim.sensors import noise
@@ -208,7 +210,6 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
     j = first[0] + np.arange(S, dtype=np.int64)  # the node's samples are consecutive
     tilt = streams.sensor_normals(R, node_index, "tilt", 2) * imu.tilt_sigma_rad
     T = tilt_matrices(tilt)
-    absT = np.abs(T)
     # gyro bias (LSB): turn-on + residual after the filter start (from sample j_start on) + Gauss-Markov per tick
     timeline = motion.timelines[node_index]
     j_start = _first_sample_at_or_after(timeline.filter_start_s, imu.sample_rate_hz)
@@ -219,41 +220,33 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
     tick_sum = imu.sampling == "tick_sum"
     g_normals = streams.sensor_normals(R, node_index, "gyro", gm_n + (3 * K if tick_sum else 0))
     if gm_n:
-        drive = g_normals[:, :gm_n].reshape(R, K, 3).transpose(0, 2, 1).copy()
-        gm = noise.gauss_markov_from_normals(drive, imu.bias_instability_rad_s, imu.bias_tau_s, dt_s)
-        gm = gm.transpose(0, 2, 1) * sg  # (R, K, 3) LSB
+        gm = noise.gauss_markov_from_normals(g_normals[:, :gm_n].reshape(R, K, 3), imu.bias_instability_rad_s * sg,
+                                             imu.bias_tau_s, dt_s, axis=1)  # (R, K, 3) LSB
     else:
         gm = np.zeros((R, K, 3))
     true_bias = (imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)[None, :]
                  + gm[:, :, 2] / sg)
     gain = 1.0 + imu.scale_factor_error
-    # tick sums of the noise-free readings and a bound on each tick's largest |mu|: first from the largest |u| of
-    # the grid; only where that bound fails, the per-tick maxima
-    usum_g = np.zeros((K, 3))
-    usum_g[:, 2] = np.add.reduceat(u_gz, starts)
-    usum_a = np.add.reduceat(u_a, starts, axis=0)
-    bias_sum = n[None, :, None] * (b_on + gm) + (n_after * b_res)[None, :, None]
-    mean_g = gain * np.einsum("kj,rij->rki", usum_g, T) + bias_sum
-    mean_a = np.einsum("kj,rij->rki", usum_a, T)
-    b_max = np.maximum(np.abs(b_on + gm), np.abs(b_on + b_res + gm))
-
-    def bounds(umax_g, umax_a):
-        return (abs(gain) * np.einsum("kj,rij->rki", umax_g, absT) + b_max, np.einsum("kj,rij->rki", umax_a, absT))
     g_lo, g_hi = imu.gyro_limits
     a_lo, a_hi = imu.accel_limits
     if tick_sum:
-        bound_g, bound_a = bounds(np.broadcast_to(umax_all[0], (K, 3)), np.broadcast_to(umax_all[1], (K, 3)))
-        g_sel = ~tc.tick_sum_valid(bound_g, imu.gyro_sigma_lsb, g_lo, g_hi).all(axis=2)
-        a_sel = ~tc.tick_sum_valid(bound_a, imu.accel_sigma_lsb, a_lo, a_hi).all(axis=2)
+        # tick sums of the noise-free readings; a bound on each tick's largest |mu| first from the largest |u| of
+        # the grid, only where that bound fails from the per-tick maxima (the draws do not depend on the bound)
+        usum_gz = np.add.reduceat(u_gz, starts)
+        usum_a = np.ascontiguousarray(np.add.reduceat(u_a, starts, axis=0))
+        gyro, accel = np.empty((R, K, 3), np.int64), np.empty((R, K, 3), np.int64)
+        g_sel, a_sel = np.empty((R, K), np.bool_), np.empty((R, K), np.bool_)
+        a_z = streams.sensor_normals(R, node_index, "accel", 3 * K)
+        sums = (usum_gz, usum_a, np.ascontiguousarray(T), gain, b_on, b_res, gm, n.astype(float), n_after.astype(float),
+                imu.gyro_sigma_lsb, imu.accel_sigma_lsb, g_lo, g_hi, a_lo, a_hi, g_normals, gm_n, a_z, gyro, accel,
+                g_sel, a_sel)
+
+        def draw(umax_gz: np.ndarray, umax_a: np.ndarray) -> None:  # ranges of realizations on threads
+            threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, r0, r1), R)
+        draw(np.full(K, umax_all[0][2]), np.ascontiguousarray(np.broadcast_to(umax_all[1], (K, 3))))
         if g_sel.any() or a_sel.any():
-            umax_g = np.zeros((K, 3))
-            umax_g[:, 2] = np.maximum.reduceat(np.abs(u_gz), starts)
-            bound_g, bound_a = bounds(umax_g, np.maximum.reduceat(np.abs(u_a), starts, axis=0))
-            g_sel = ~tc.tick_sum_valid(bound_g, imu.gyro_sigma_lsb, g_lo, g_hi).all(axis=2)
-            a_sel = ~tc.tick_sum_valid(bound_a, imu.accel_sigma_lsb, a_lo, a_hi).all(axis=2)
-        gyro = tc.tick_sum_draw(mean_g, n[None, :, None], imu.gyro_sigma_lsb, g_normals[:, gm_n:].reshape(R, K, 3))
-        a_normals = streams.sensor_normals(R, node_index, "accel", 3 * K).reshape(R, K, 3)
-        accel = tc.tick_sum_draw(mean_a, n[None, :, None], imu.accel_sigma_lsb, a_normals)
+            draw(np.maximum.reduceat(np.abs(u_gz), starts),
+                 np.ascontiguousarray(np.maximum.reduceat(np.abs(u_a), starts, axis=0)))
     else:
         g_sel = a_sel = np.ones((R, K), dtype=bool)
         gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
@@ -273,6 +266,38 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
                          "accel_samples")
     return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, tilt,
                       int(g_sel.sum() + a_sel.sum()))
+
+
+@njit(cache=True, nogil=True)
+def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm, n, n_after, sigma_g, sigma_a, g_lo, g_hi,
+               a_lo, a_hi, z_g, z_g0, z_a, gyro, accel, g_sel, a_sel, r_first, r_end) -> None:
+    """The direct tick-sum draws of every (realization r, tick k, axis i) and which ticks must be read per sample
+    (:mod:`nodesim.sensors.tick_counts`), from the tick sums of the noise-free z-gyro (``usum_gz`` (K,)) and
+    accelerometer (``usum_a`` (K, 3)) readings before tilt, bias and scale factor, and bounds ``umax_*`` on their
+    largest magnitude in each tick:
+
+        mean_g = gain (T_r u_g)_i + n_k (b_on + b_gm,rki) + n_after,k b_res     mean_a = (T_r u_a)_i
+        bound_g = |gain| (|T_r| umax_g)_i + max(|b_on + b_gm|, |b_on + b_res + b_gm|)   bound_a = (|T_r| umax_a)_i
+
+    (u_g = (0, 0, usum_gz)); a tick is drawn directly while every axis' bound is valid (``valid_one``).  The
+    normals: ``z_g[r, z_g0 + 3 k + i]`` (the "gyro" stream after its Gauss-Markov drive), ``z_a[r, 3 k + i]``.
+    Realizations ``r_first`` .. ``r_end - 1``."""
+    K = gyro.shape[1]
+    for r in range(r_first, r_end):
+        for k in range(K):
+            ok_g, ok_a = True, True
+            for i in range(3):
+                t0, t1, t2 = T[r, i, 0], T[r, i, 1], T[r, i, 2]
+                g = gm[r, k, i]
+                mean_g = gain * (t2 * usum_gz[k]) + (n[k] * (b_on + g) + n_after[k] * b_res)
+                mean_a = t0 * usum_a[k, 0] + t1 * usum_a[k, 1] + t2 * usum_a[k, 2]
+                gyro[r, k, i] = tc.draw_one(mean_g, n[k], sigma_g, z_g[r, z_g0 + 3 * k + i])
+                accel[r, k, i] = tc.draw_one(mean_a, n[k], sigma_a, z_a[r, 3 * k + i])
+                b_max = max(abs(b_on + g), abs(b_on + b_res + g))
+                ok_g = ok_g and tc.valid_one(abs(gain) * (abs(t2) * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
+                bound_a = abs(t0) * umax_a[k, 0] + abs(t1) * umax_a[k, 1] + abs(t2) * umax_a[k, 2]
+                ok_a = ok_a and tc.valid_one(bound_a, sigma_a, a_lo, a_hi)
+            g_sel[r, k], a_sel[r, k] = not ok_g, not ok_a
 
 
 def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: int, hi: int, starts: np.ndarray,

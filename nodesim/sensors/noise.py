@@ -52,14 +52,16 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     return gauss_markov_from_normals(rng.standard_normal(shape), sigma, tau_s, dt_s)
 
 
-def gauss_markov_from_normals(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
+def gauss_markov_from_normals(w: np.ndarray, sigma: float, tau_s: float, dt_s: float, axis: int = -1) -> np.ndarray:
     """:func:`gauss_markov` driven by given standard normals ``w`` (e.g. rows of (R, n), one realization's
-    stream each), along the last axis: x[0] = sigma w[0], x[k] = phi x[k-1] + sigma sqrt(1 - phi^2) w[k],
-    phi = exp(-dt / tau)."""
+    stream each), along ``axis`` (the last by default): x[0] = sigma w[0], x[k] = phi x[k-1] + sigma sqrt(1 - phi^2)
+    w[k], phi = exp(-dt / tau)."""
     phi = math.exp(-dt_s / tau_s)
     drive = w * (sigma * math.sqrt(1.0 - phi * phi))
-    drive[..., 0] = sigma * w[..., 0]
-    return lfilter([1.0], [1.0, -phi], drive, axis=-1)
+    first = [slice(None)] * w.ndim
+    first[axis] = 0
+    drive[tuple(first)] = sigma * w[tuple(first)]
+    return lfilter([1.0], [1.0, -phi], drive, axis=axis)
 
 
 def flicker_taus(tau_min_s: float, tau_max_s: float, per_decade: int = FLICKER_PER_DECADE) -> np.ndarray:

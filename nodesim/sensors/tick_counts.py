@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from nodesim.errors import NodesimError
 
@@ -62,18 +63,46 @@ def sample_windows(tick_t_s: np.ndarray, tick_dt_s: float, sample_rate_hz: float
     return last[:-1] + 1, n
 
 
+@njit(cache=True, inline="always")
+def draw_one(mean_sum_lsb, n, sigma_lsb, z):
+    """One tick sum drawn directly: round_he(sum mu + sqrt(n (sigma^2 + 1/12)) z) (module docstring)."""
+    return np.int64(np.rint(mean_sum_lsb + math.sqrt(n * (sigma_lsb * sigma_lsb + 1.0 / 12.0)) * z))
+
+
+@njit(cache=True, inline="always")
+def valid_one(max_abs_mu_lsb, sigma_lsb, lo, hi):
+    """Whether the direct draw is valid for a tick whose largest |mu| is ``max_abs_mu_lsb`` (module docstring)."""
+    return sigma_lsb >= TICK_SUM_MIN_SIGMA_LSB and max_abs_mu_lsb + CLIP_MARGIN_SIGMAS * sigma_lsb < min(-lo, hi)
+
+
+@njit(cache=True)
+def _draw_flat(mean, n, sigma_lsb, z, out):
+    for i in range(out.size):
+        out[i] = draw_one(mean[i], n[i], sigma_lsb, z[i])
+
+
+@njit(cache=True)
+def _valid_flat(bound, sigma_lsb, lo, hi, out):
+    for i in range(out.size):
+        out[i] = valid_one(bound[i], sigma_lsb, lo, hi)
+
+
 def tick_sum_draw(mean_sum_lsb: np.ndarray, n: np.ndarray, sigma_lsb: float, normals: np.ndarray) -> np.ndarray:
-    """Tick sums drawn directly: round_he(sum mu + sqrt(n (sigma^2 + 1/12)) z) as int64 (module docstring).
-    ``normals`` (z) has the shape of ``mean_sum_lsb``; ``n`` broadcasts against it."""
-    sd = np.sqrt(np.asarray(n, dtype=float) * (sigma_lsb * sigma_lsb + 1.0 / 12.0))
-    return np.rint(mean_sum_lsb + sd * normals).astype(np.int64)
+    """Tick sums drawn directly (:func:`draw_one` elementwise) as int64; ``normals`` (z) has the shape of
+    ``mean_sum_lsb``; ``n`` broadcasts against it."""
+    mean, nn, z = (np.ascontiguousarray(a, dtype=float).ravel() for a in
+                   np.broadcast_arrays(mean_sum_lsb, np.asarray(n, dtype=float), normals))
+    out = np.empty(mean.size, np.int64)
+    _draw_flat(mean, nn, float(sigma_lsb), z, out)
+    return out.reshape(np.shape(normals))
 
 
 def tick_sum_valid(max_abs_mu_lsb: np.ndarray, sigma_lsb: float, lo: int, hi: int) -> np.ndarray:
-    """Where the direct draw is valid (bool, shape of ``max_abs_mu_lsb``; module docstring)."""
-    if sigma_lsb < TICK_SUM_MIN_SIGMA_LSB:
-        return np.zeros(np.shape(max_abs_mu_lsb), dtype=bool)
-    return np.asarray(max_abs_mu_lsb) + CLIP_MARGIN_SIGMAS * sigma_lsb < min(-lo, hi)
+    """Where the direct draw is valid (:func:`valid_one` elementwise; bool, shape of ``max_abs_mu_lsb``)."""
+    b = np.ascontiguousarray(max_abs_mu_lsb, dtype=float)
+    out = np.empty(b.size, np.bool_)
+    _valid_flat(b.ravel(), float(sigma_lsb), int(lo), int(hi), out)
+    return out.reshape(b.shape)
 
 
 def quantise(value_lsb: np.ndarray, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:

@@ -23,7 +23,9 @@ REALIZATIONS = 16
 T422 = "thesis table 4.22 (RMS errors 350-550 s, 32-point MAF)"
 NOISE_NOTE = (
     "the MPU-6500 datasheet accelerometer noise (300 ug/sqrt(Hz) one-sided, 212 two-sided) alone gives ~0.085 deg "
-    "RMS azimuth at 2 deg inclination after the 32-point MAF; the thesis figure implies ~3x less noise"
+    "RMS azimuth at 2 deg inclination after the 32-point MAF; the thesis figure implies ~3x less noise; the lab "
+    "alignment offset's own residual (its max and min are read from a noisy 32-point average; firmware.alignment) "
+    "adds ~0.05 deg in quadrature"
 )
 OFFSET_NOTE = (
     "after convergence our yaw error in these modes is a few hundredths of a degree; the thesis figure is "
