@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import leading_zeros
 
 from firmware_model.errors import FirmwareError
 from firmware_model.fixed_kernel import shift_right_round
@@ -79,13 +80,10 @@ def wrap32(x):
 
 @njit(cache=True, inline="always")
 def norm_shift(m, bits):
-    """s such that m * 2^s lies in [2^(bits-1), 2^bits) for m >= 1 (s < 0: a right shift)."""
-    s = 0
-    while (m >> -s if s < 0 else m << s) >= (np.int64(1) << bits):
-        s -= 1
-    while (m << s if s >= 0 else m >> -s) < (np.int64(1) << (bits - 1)):
-        s += 1
-    return s
+    """s such that m * 2^s lies in [2^(bits-1), 2^bits) for m >= 1 (s < 0: a right shift): the shift that gives
+    m ``bits`` significant bits, ``bits - bit_length(m)``, bit_length(m) = 64 - clz(m) (a floor right shift of
+    m >= 1 by t keeps bit_length(m) - t bits; the C twin steps the shift one bit at a time to the same s)."""
+    return bits - (64 - leading_zeros(m))
 
 
 @njit(cache=True, inline="always")
@@ -108,17 +106,14 @@ def vectoring(x, y, iterations):
         return np.int64(0), np.int64(0)
     s = norm_shift(m, NORM_BITS)
     x, y = shift(x, s), shift(y, s)
-    z = np.int64(0)
-    if x < 0:
-        if y >= 0:
-            x, y, z = y, -x, np.int64(QUARTER_TURN)
-        else:
-            x, y, z = -y, x, np.int64(-QUARTER_TURN)
-    for i in range(iterations):
-        if y >= 0:
-            x, y, z = x + (y >> i), y - (x >> i), z + ATAN[i]
-        else:
-            x, y, z = x - (y >> i), y + (x >> i), z - ATAN[i]
+    # the pre-rotation without branches (the quadrant of a spinning string's toolface is not predictable):
+    # sx, sy = -1 where x < 0, y < 0 (else 0); for x < 0: x <- |y|, y <- -x (y >= 0) or x (y < 0), z <- +/-2^30
+    sx, sy = x >> 63, y >> 63
+    x, y, z = (x & ~sx) | (((y ^ sy) - sy) & sx), (y & ~sx) | (((x ^ ~sy) + 1 + sy) & sx), \
+        ((QUARTER_TURN ^ sy) - sy) & sx
+    for i in range(iterations):  # branchless: d = y >> 63 is 0 (y >= 0) or -1, (v ^ d) - d is v or -v
+        d = y >> 63
+        x, y, z = x + (((y >> i) ^ d) - d), y - (((x >> i) ^ d) - d), z + ((ATAN[i] ^ d) - d)
     mag = shift_right_round(x * K_INV[iterations], GAIN_FRAC)
     if s > 0:
         mag = shift_right_round(mag, s)
