@@ -122,7 +122,7 @@ def ma_push(state, points, inc, azi):
         state[MA_COUNT] += 1
     state[ri + head], state[ra + head] = inc, azi
     state[MA_SUM_I] += inc
-    state[MA_HEAD] = (head + 1) % points
+    state[MA_HEAD] = head + 1 if head + 1 < points else 0  # (head + 1) mod points, without a division
     n = state[MA_COUNT]
     d = np.int64(0)
     for j in range(n):
