@@ -104,14 +104,14 @@ def resolve(fx, fy, fz, yaw32, mode, iterations):
     raise FirmwareError("survey: mode must be MODE_CORDIC (0) or MODE_FPU (1)")
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def ma_reset(state):
     state[MA_COUNT] = 0
     state[MA_HEAD] = 0
     state[MA_SUM_I] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def ma_push(state, points, inc, azi):
     """Add one survey (I, A) to the moving average, return (I_avg, A_avg) (module docstring)."""
     head = state[MA_HEAD]
