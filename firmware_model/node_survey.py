@@ -51,6 +51,9 @@ MASK32 = (1 << 32) - 1
 RAD_TO_BA32_F32 = np.float32(cordic.TURN / (2.0 * math.pi))  # float32(683565275.58...)
 MA_COUNT, MA_HEAD, MA_SUM_I, MA_RING = 0, 1, 2, 3  # moving-average state words; rings of I then A follow
 MA_STATE = ("count", "head", "sum_i")
+W_FX, W_FY, W_FZ, W_YAW32, W_INC, W_AZI, W_SHIFT = range(7)  # rows of resolve_cordic_lanes' work array
+WORK_ROWS = 7
+BLOCK = 64  # fixed_surveys resolves this many ticks at once (lanes of resolve_cordic_lanes)
 
 
 def ma_state_size(points: int) -> int:
@@ -67,18 +70,35 @@ def yaw_to_ba32(yaw_raw, yaw_frac_bits):
     return y & MASK32
 
 
+@njit(cache=True, _nrt=False)
+def resolve_cordic_lanes(work, iterations):
+    """(I, A) binary angles by integer CORDIC (module docstring) of every lane j of ``work`` (int64 (WORK_ROWS, n)):
+    rows W_FX, W_FY, W_FZ the count sums and W_YAW32 the yaw binary angle in, rows W_INC, W_AZI the result out
+    (the other rows and the inputs are overwritten); both vectorings run over all lanes at once
+    (:func:`firmware_model.cordic.vectoring_lanes`)."""
+    fx, fy, fz = work[W_FX], work[W_FY], work[W_FZ]
+    for j in range(fx.shape[0]):
+        m = max(abs(fx[j]), abs(fy[j]), abs(fz[j]))
+        if m > cordic.MAX_INPUT:
+            raise FirmwareError("survey: an accelerometer sum beyond +/-(2^62 - 1)")
+        if m > 0:
+            s = cordic.norm_shift(m, SURVEY_NORM_BITS)
+            fx[j], fy[j], fz[j] = cordic.shift(fx[j], s), cordic.shift(fy[j], s), cordic.shift(fz[j], s)
+    cordic.vectoring_lanes(fx, fy, iterations, work[W_AZI], work[W_SHIFT])  # toolface -> W_AZI, h -> W_FX
+    cordic.vectoring_lanes(fz, fx, iterations, work[W_INC], work[W_SHIFT])  # inclination -> W_INC
+    inc, azi, yaw32 = work[W_INC], work[W_AZI], work[W_YAW32]
+    for j in range(inc.shape[0]):
+        inc[j], azi[j] = abs(inc[j]), (azi[j] + yaw32[j]) & MASK32
+
+
 @njit(cache=True)
 def resolve_cordic(fx, fy, fz, yaw32, iterations):
-    """(I, A) binary angles from count sums by integer CORDIC (module docstring)."""
-    m = max(abs(fx), abs(fy), abs(fz))
-    if m > cordic.MAX_INPUT:
-        raise FirmwareError("survey: an accelerometer sum beyond +/-(2^62 - 1)")
-    if m > 0:
-        s = cordic.norm_shift(m, SURVEY_NORM_BITS)
-        fx, fy, fz = cordic.shift(fx, s), cordic.shift(fy, s), cordic.shift(fz, s)
-    toolface, h = cordic.vectoring(fx, fy, iterations)
-    inc, _ = cordic.vectoring(fz, h, iterations)
-    return abs(inc), (toolface + yaw32) & MASK32
+    """(I, A) binary angles from count sums by integer CORDIC (module docstring): one lane of
+    :func:`resolve_cordic_lanes`."""
+    work = np.empty((WORK_ROWS, 1), dtype=np.int64)
+    work[W_FX, 0], work[W_FY, 0], work[W_FZ, 0], work[W_YAW32, 0] = fx, fy, fz, yaw32
+    resolve_cordic_lanes(work, iterations)
+    return work[W_INC, 0], work[W_AZI, 0]
 
 
 @njit(cache=True)
@@ -104,14 +124,14 @@ def resolve(fx, fy, fz, yaw32, mode, iterations):
     raise FirmwareError("survey: mode must be MODE_CORDIC (0) or MODE_FPU (1)")
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def ma_reset(state):
     state[MA_COUNT] = 0
     state[MA_HEAD] = 0
     state[MA_SUM_I] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def ma_push(state, points, inc, azi):
     """Add one survey (I, A) to the moving average, return (I_avg, A_avg) (module docstring)."""
     head = state[MA_HEAD]
@@ -122,7 +142,7 @@ def ma_push(state, points, inc, azi):
         state[MA_COUNT] += 1
     state[ri + head], state[ra + head] = inc, azi
     state[MA_SUM_I] += inc
-    state[MA_HEAD] = (head + 1) % points
+    state[MA_HEAD] = head + 1 if head + 1 < points else 0  # (head + 1) mod points, without a division
     n = state[MA_COUNT]
     d = np.int64(0)
     for j in range(n):
@@ -141,13 +161,26 @@ def fixed_surveys(accel_counts, yaw_raw, points, mode, iterations, inc_raw_out, 
         raise FirmwareError("survey: cordic iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
     R, K = yaw_raw.shape
     state = np.zeros(MA_RING + 2 * points, dtype=np.int64)
+    work = np.zeros((WORK_ROWS, BLOCK), dtype=np.int64)
     for r in range(R):
         ma_reset(state)
-        for k in range(K):
-            y32 = yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits)
-            i_raw, a_raw = resolve(accel_counts[r, k, 0], accel_counts[r, k, 1], accel_counts[r, k, 2], y32, mode,
-                                   iterations)
-            inc_raw_out[r, k], azi_raw_out[r, k] = ma_push(state, points, i_raw, a_raw)
+        for k0 in range(0, K, BLOCK):  # BLOCK ticks resolved at once (CORDIC lanes), then averaged one by one
+            n = min(BLOCK, K - k0)
+            for j in range(n):
+                k = k0 + j
+                y32 = yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits)
+                if mode == MODE_CORDIC:
+                    work[W_FX, j], work[W_FY, j], work[W_FZ, j] = accel_counts[r, k, 0], accel_counts[r, k, 1], \
+                        accel_counts[r, k, 2]
+                    work[W_YAW32, j] = y32
+                else:
+                    work[W_INC, j], work[W_AZI, j] = resolve(accel_counts[r, k, 0], accel_counts[r, k, 1],
+                                                             accel_counts[r, k, 2], y32, mode, iterations)
+            if mode == MODE_CORDIC:
+                work[:W_YAW32 + 1, n:] = 0  # a last, partial block: zero vectors in the unused lanes
+                resolve_cordic_lanes(work, iterations)
+            for j in range(n):
+                inc_raw_out[r, k0 + j], azi_raw_out[r, k0 + j] = ma_push(state, points, work[W_INC, j], work[W_AZI, j])
 
 
 def mode_of(survey_math: str) -> int:

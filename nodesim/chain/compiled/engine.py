@@ -281,7 +281,10 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int) -> None:
     _, _, _, src_node, src_tick, enc_t_read, _, _ = out
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
-    yaw_enc = fw.config.encoder_yaw_raw(net.encoder.read_many(t)[0]) * np.ones((R, 1), np.int64)
+    # the encoder's binary angle is read at the tick itself up to the filter start (static window, start); the
+    # top node's replies after it are filled in below, no other tick reads it
+    yaw_enc = np.zeros((R, K), np.int64)
+    yaw_enc[:, :n_static + 1] = fw.config.encoder_yaw_raw(net.encoder.read_many(t[:n_static + 1])[0])
     enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     if n == 0:
         t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
