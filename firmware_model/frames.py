@@ -167,6 +167,41 @@ def decode_frame(frame, layout, kind, values):
     return got == crc16(frame, n) and np.int64(frame[0]) == kind
 
 
+ESTIMATE_LAYOUT = LAYOUTS[ESTIMATE]
+EST_YAW, EST_PYY = field_index(ESTIMATE, "yaw"), field_index(ESTIMATE, "P_yy")  # columns of the decoded words
+
+
+@njit(cache=True)
+def encode_estimate(node, seq, t_read_us, yaw, p_yy, rate, bias, values, out):
+    """The estimate frame of one lane into ``out`` (27 uint8) through :func:`encode_frame`: node id, the sender's
+    tick counter as ``seq`` (mod 2^16), its microsecond timer ``t_read_us`` (mod 2^32) and the firmware words
+    (yaw binary angle, P_yy, bias-corrected rate, bias); ``values`` (7,) int64 is the work row.  Both engines
+    send their estimates through it (the SimPy engine by :func:`encode_estimates`).  Returns
+    :func:`encode_frame`'s status (< 0: a word does not fit its field, the frame must not be sent)."""
+    values[0], values[1], values[2], values[3] = node, seq, t_read_us, yaw
+    values[4], values[5], values[6] = p_yy, rate, bias
+    return encode_frame(values, ESTIMATE_LAYOUT, ESTIMATE, out)
+
+
+@njit(cache=True)
+def encode_estimates(node, seq, t_read_us, yaw, p_yy, rate, bias, frames, values):
+    """:func:`encode_estimate` lane by lane (``yaw`` ... ``bias`` (R,), ``frames`` (R, 27), ``values`` (R, 7));
+    returns the lowest status (< 0: some lane's word does not fit)."""
+    worst = 0
+    for r in range(frames.shape[0]):
+        s = encode_estimate(node, seq, t_read_us, yaw[r], p_yy[r], rate[r], bias[r], values[r], frames[r])
+        worst = min(worst, s)
+    return worst
+
+
+@njit(cache=True)
+def decode_estimate(frame, values):
+    """(yaw, P_yy) words of an estimate frame through :func:`decode_frame` (``values`` (7,) int64, the work row)
+    and whether its CRC and type byte hold."""
+    ok = decode_frame(frame, ESTIMATE_LAYOUT, ESTIMATE, values)
+    return values[EST_YAW], values[EST_PYY], ok
+
+
 @njit(cache=True)
 def encode_lanes(values, layout, kind, n_bytes):
     """(frames (R, n_bytes) uint8, status (R,) int64) of :func:`encode_frame` lane by lane."""

@@ -101,6 +101,7 @@ class NodeRun:
     ref_var_rad2: np.ndarray | None = None
     present_from_s: float = 0.0
     adc_clipped_samples: np.ndarray | None = None  # (R,) gyro + accelerometer axis readings clipped at full scale
+    estimate_frames: np.ndarray | None = None  # (R, K, 27) uint8 the estimate frames it sent (fixed firmware), 0 = none
 
 
 @dataclass(frozen=True)
@@ -310,6 +311,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         present_from_s=node.timeline.present_from_s,
         adc_clipped_samples=(None if node.sig.gyro_clipped_samples is None
                              else node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples),
+        estimate_frames=node.frames,
     )
 
 

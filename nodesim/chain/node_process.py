@@ -37,6 +37,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from firmware_model import fixed_kernel as fk
+from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from nodesim.chain.estimator import (FirmwareLanes, firmware_config, forwarded_reference, new_filter, rate_estimate,
                                      timer_us, yaw_rad_of_raw)
@@ -96,6 +97,8 @@ class ChainNode:
         # the fixed firmware's binary angle and P_yy raws per tick (the survey and the frames use them)
         self.yaw_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         self.var_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
+        # the estimate frames it sent, (R, K, 27) uint8, all zero where it sent none (type byte 0)
+        self.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), dtype=np.uint8) if self.fixed else None
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
@@ -298,10 +301,11 @@ class ChainNode:
         """Send the estimate to the node below (or, where this node fell back, to the one after it)."""
         net = self.net
         seq = net.next_seq()
-        if self.fixed:  # issue 19b: the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias)
+        if self.fixed:  # the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias), seq = tick k
             rate_raw = self.fw.outputs[:, nf.OUT_RATE]
-            raws = dict(frame=estimate_frame(self.node_id, seq, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
+            raws = dict(frame=estimate_frame(self.node_id, k, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
                                              rate_raw, self.fw.states[:, fk.I_BIAS]))
+            self.frames[valid, k] = raws["frame"][valid]
             rate = self.fw.rate_rad_s(rate_raw)
         else:
             raws, rate = {}, rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])

@@ -35,20 +35,18 @@ class EstimatePacket:
         return replace(self, valid=self.valid & ~lost)
 
 
-_EST = fr.FIELDS[fr.ESTIMATE]
-_YAW, _PYY = fr.field_index(fr.ESTIMATE, "yaw"), fr.field_index(fr.ESTIMATE, "P_yy")
-
-
 def estimate_frame(node: int, seq: int, t_read_us, yaw_raw, var_raw, rate_raw, bias_raw) -> np.ndarray:
-    """The estimate frame of every realization, (R, 27) uint8 (:mod:`firmware_model.frames`, docs/firmware.md
-    "Frames"): node, seq (mod 2^16), t_read_us (mod 2^32), yaw (binary angle), P_yy, rate, bias raws in the
-    build's formats (Q0.32, Q8.24, Q16.16, Q16.16 by default; a shorter word fits the same 32-bit fields)."""
+    """The estimate frame of every realization, (R, 27) uint8, by :func:`firmware_model.frames.encode_estimates`
+    (docs/firmware.md "Frames"): node, seq (the sender's tick counter, mod 2^16), t_read_us (mod 2^32), yaw (binary
+    angle), P_yy, rate, bias raws in the build's formats (Q0.32, Q8.24, Q16.16, Q16.16 by default; a shorter word
+    fits the same 32-bit fields)."""
     R = np.shape(yaw_raw)[0]
-    v = np.empty((R, len(_EST)), dtype=np.int64)
-    v[:, 0], v[:, 1], v[:, 2] = node, seq, t_read_us
-    v[:, 3], v[:, 4], v[:, 5], v[:, 6] = yaw_raw, var_raw, rate_raw, bias_raw
-    frames, status = fr.encode_lanes(v, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE, fr.ESTIMATE_BYTES)
-    if (status < 0).any():
+    frames = np.zeros((R, fr.ESTIMATE_BYTES), dtype=np.uint8)
+    values = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), dtype=np.int64)
+    words = [np.ascontiguousarray(np.broadcast_to(w, (R,)), dtype=np.int64)
+             for w in (yaw_raw, var_raw, rate_raw, bias_raw)]
+    if fr.encode_estimates(node, seq, int(t_read_us), *words, frames, values) < 0:
+        v = np.column_stack([np.full(R, node), np.full(R, seq), np.full(R, int(t_read_us)), *words])
         fr.encode(fr.ESTIMATE, v)  # raises the FirmwareError naming the lane and field
     return frames
 
@@ -106,7 +104,7 @@ def select_reference(
     for pkt in sorted(inbox, key=lambda p: p.seq, reverse=True):  # newest first
         valid = pkt.valid
         if raws:  # the receiver decodes the bytes: a frame failing its CRC is dropped and counted
-            words, ok = fr.decode_lanes(pkt.frame, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE)
+            words, ok = fr.decode_lanes(pkt.frame, fr.ESTIMATE_LAYOUT, fr.ESTIMATE)
             rejected += valid & ~ok
             valid = valid & ok
         newer = valid & (pkt.seq > last_seq)
@@ -120,7 +118,7 @@ def select_reference(
         t_read = np.where(take, pkt.t_read_s, t_read)
         seq = np.where(take, pkt.seq, seq)
         if raws:
-            yaw_raw = np.where(take, words[:, _YAW], yaw_raw)
-            var_raw = np.where(take, words[:, _PYY], var_raw)
+            yaw_raw = np.where(take, words[:, fr.EST_YAW], yaw_raw)
+            var_raw = np.where(take, words[:, fr.EST_PYY], var_raw)
         have |= take
     return Selection(have, yaw, var, t_read, seq, stale, dup, yaw_raw, var_raw, rejected)

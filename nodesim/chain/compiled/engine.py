@@ -28,6 +28,7 @@ from nodesim import threads
 from nodesim.rng import pcg64
 from nodesim.chain.compiled import events as ev
 from firmware_model import fixed_kernel
+from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from nodesim.chain.compiled import filters, float_kernel
 from nodesim.chain.estimator import timer_us
@@ -293,14 +294,18 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int) -> None:
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    up = (tuple(a.sig.t_s for a in above), tuple(a.yaw_raw for a in above), tuple(a.var_raw for a in above))
+    node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
+    up = (tuple(a.sig.t_s for a in above), tuple(a.frames for a in above))
+    sender = (node.node_id, net.forward_every_tick, n == net.n_nodes - 1)
     inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+    words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, n_static,
                                   k_end, n == 0, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
-                                  *up, inp, res, node.yaw_raw, node.var_raw, node.yaw, node.var, node.bias,
+                                  *up, sender, words, inp, res, node.yaw_raw, node.var_raw, node.frames, node.yaw,
+                                  node.var, node.bias,
                                   node.ref_yaw, node.ref_var, r0, r1)
         return counts
 
