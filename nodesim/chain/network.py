@@ -27,7 +27,9 @@ import simpy
 from firmware_model import node_survey as survey
 from firmware_model.node_survey import fixed_surveys
 from nodesim import threads
+from firmware_model import frames as fr
 from nodesim.chain import faults
+from nodesim.chain.bit_errors import FrameErrors
 from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.links import LazyStreams, LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
@@ -152,14 +154,20 @@ class Network:
         self.hops, skips = hop_channels(scenario, streams, R)
         mac = scenario.mac
 
-        def link(channel, gens, h):
-            return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h))
+        def link(channel, gens, h, errors=None):
+            return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h),
+                        errors=errors)
 
-        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, h), R), h)
+        def errors(keys):  # mac.bit_errors on a link carrying estimate frames (hop 0 carries the encoder exchange)
+            return FrameErrors(fr.ESTIMATE, keys()) if mac.bit_errors else None
+
+        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, h), R), h,
+                                errors(partial(streams.bit_error_keys, R, h)) if h else None)
                            for h in range(c.nodes)]
         self.up_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, c.nodes + h), R), h)
                          for h in range(c.nodes)]
         self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
+        self._errors = errors
         self.surface = RadioState(R, mac.queue_length)
         self.seq = 0
         schedule = schedule_of(scenario)
@@ -188,7 +196,8 @@ class Network:
         come from its own streams, so when it is built does not matter)."""
         if node_id not in self._skip_links:
             gens = LazyStreams(partial(self._streams.skip_link_batch, self.R, node_id), self.R)
-            self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1)
+            self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1, self._errors(
+                partial(self._streams.skip_bit_error_keys, self.R, node_id)))
         return self._skip_links[node_id]
 
     def next_seq(self) -> int:

@@ -321,13 +321,20 @@ class ChainNode:
         )
         t_ready = self.ready_s + net.processing_s
         below = net.nodes[self.index + 1]
-        tr = net.down_links[self.index + 1].transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
+        link = net.down_links[self.index + 1]
+        tr = link.transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
         skip = self.fallback.record(valid & ~np.isnan(tr.end_s), tr.delivered, t)
         if tr.delivered.any():
-            below.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
+            below.deliver(_received(pkt, link, tr))
         if skip.any():  # the neighbour did not answer: on to the node after it, once the exchange is over
             skip_to = net.nodes[self.index + 2]
-            tr = net.skip_link(self.node_id).transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio,
-                                                      skip_to.radio, skip_to.dead_at_s)
+            link = net.skip_link(self.node_id)
+            tr = link.transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio, skip_to.radio, skip_to.dead_at_s)
             if tr.delivered.any():
-                skip_to.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
+                skip_to.deliver(_received(pkt, link, tr))
+
+
+def _received(pkt: EstimatePacket, link, tr) -> EstimatePacket:
+    """The packet as the receiver got it over ``link`` (its bytes with the bit errors the CRC let through)."""
+    frame = pkt.frame if pkt.frame is None else link.received(pkt.frame, tr)
+    return replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s, frame=frame)

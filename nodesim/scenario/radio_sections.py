@@ -107,6 +107,9 @@ class MacSection(_Section):
     preamble_bits: int = Field(56, ge=0, le=100_000, description="preamble + sync word + PHY header bits before "
                                "the frame (CC1101: 32 + 16 + 8)")
     ack_bits: int = Field(64, ge=8, le=100_000)
+    bit_errors: bool = Field(False, description="draw each try's bit errors from the hop's BER and decode the frame "
+                             "(CRC failure: dropped, retried; undetected: accepted, counted); needs radio.model = "
+                             "'channel' and filter.implementation = 'fixed'")
     max_retries: int = Field(3, ge=0, le=20)
     ack_timeout_s: float = Field(0.01, gt=0.0, le=10.0)
     turnaround_s: float = Field(0.0002, ge=0.0, le=1.0, description="RX/TX switch time")
