@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from firmware_model import frames as fr
+from nodesim.units import G0_M_S2
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,37 @@ class SurveyPacket:
 
     def lost_where(self, lost: np.ndarray) -> "SurveyPacket":
         return replace(self, valid=self.valid & ~lost)
+
+
+def survey_sigmas_rad(accel_sigma_m_s2: float, points: int, true_inclination_rad: float, yaw_var_rad2):
+    """(sigma_I, sigma_A) of a survey: sigma_I^2 = sigma_f^2 / (M g^2), sigma_A^2 = P_psipsi + sigma_f^2 /
+    (M (g sin I)^2), sigma_f the per-tick accelerometer noise, M the moving-average length."""
+    var_f = accel_sigma_m_s2**2 / points
+    horizontal = G0_M_S2 * np.sin(true_inclination_rad)
+    return np.sqrt(var_f) / G0_M_S2, np.sqrt(yaw_var_rad2 + var_f / max(horizontal, 1e-12) ** 2)
+
+
+def survey_frame(station: int, node: int, t_us: int, inc_raw, azi_raw, sigma_i_rad, sigma_a_rad) -> np.ndarray:
+    """The survey frames of every realization, (R, 25) uint8 (:mod:`firmware_model.frames`): station, node,
+    cluster 0 (one sensor cluster per tube here), t_us (mod 2^32), the I and A binary angles (Q0.32, mod one turn)
+    and the sigmas as unsigned 2^-20-turn words (rounded; above 22.5 deg saturated, ``SATURATE``)."""
+    R = np.shape(inc_raw)[0]
+    lsb = 2.0 * np.pi / 2**20
+    v = np.column_stack([np.full(R, station), np.full(R, node), np.zeros(R, np.int64), np.full(R, t_us),
+                         np.asarray(inc_raw, np.int64), np.asarray(azi_raw, np.int64),
+                         np.broadcast_to(np.rint(np.asarray(sigma_i_rad) / lsb), (R,)).astype(np.int64),
+                         np.rint(np.asarray(sigma_a_rad) / lsb).astype(np.int64)])
+    return fr.encode(fr.SURVEY, v)[0]
+
+
+def decode_survey(frames: np.ndarray) -> dict[str, np.ndarray]:
+    """The ground station's reading of survey frames (R, 25): ``valid`` (CRC and type byte), the I and A words
+    back in [0, 2^32) (one turn) and the sigmas in radians."""
+    values, ok = fr.decode(fr.SURVEY, frames)
+    col = {name: values[:, i] for i, (name, *_) in enumerate(fr.FIELDS[fr.SURVEY])}
+    lsb = 2.0 * np.pi / 2**20
+    return {"valid": ok, "inc_raw": col["I"] & 0xFFFFFFFF, "azi_raw": col["A"] & 0xFFFFFFFF,
+            "sigma_i_rad": col["sigma_I"] * lsb, "sigma_a_rad": col["sigma_A"] * lsb}
 
 
 @dataclass(frozen=True)

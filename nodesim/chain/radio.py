@@ -20,7 +20,7 @@ length (mixed media: the summed losses), with its own shadowing draw.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -121,6 +121,15 @@ class HopChannel:
     def _row(self, t_s) -> np.ndarray:
         g = np.clip((np.asarray(t_s) / self.step_s).astype(np.int64), 0, self.per_data_table.shape[0] - 1)
         return g
+
+    def for_frame(self, frame_bits: int, bit_rate_bps: float) -> "HopChannel":
+        """The same hop for data frames of ``frame_bits`` bits (preamble included): PER 1 - (1 - BER)^bits and
+        airtime bits / bit rate (the survey frames of the up links); the simple link is the same whatever the
+        length (its fixed delay and loss)."""
+        if self.ber_table is None:
+            return self
+        return replace(self, per_data_table=np.asarray(per.per_from_ber(self.ber_table, frame_bits), dtype=float),
+                       airtime_s=frame_bits / bit_rate_bps)
 
     def per_data(self, t_s: np.ndarray) -> np.ndarray:
         return self._at(self.per_data_table, t_s)

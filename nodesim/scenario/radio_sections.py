@@ -15,6 +15,7 @@ from pydantic import Field, model_validator
 
 from firmware_model.frames import ESTIMATE_BYTES
 from nodesim.scenario.section_base import _Section
+from nodesim.errors import NodesimError
 
 Kind = Literal["soil", "pipe", "cable"]
 
@@ -94,6 +95,9 @@ class RadioSection(_Section):
     hop: list[HopOverride] = Field(default_factory=list)
 
 
+MAX_FRAME_BYTES = 255
+
+
 class MacSection(_Section):
     """Stop-and-wait ARQ MAC (``enabled = false``: one attempt per frame, no ACK, no queue).
 
@@ -134,7 +138,15 @@ class MacSection(_Section):
     @property
     def data_frame_bits(self) -> int:
         """Bits on air per data frame: preamble_bits + 8 * ESTIMATE_BYTES."""
-        return self.preamble_bits + 8 * ESTIMATE_BYTES
+        return self.frame_bits(ESTIMATE_BYTES)
+
+    def frame_bits(self, n_bytes: int) -> int:
+        """Bits on air of a frame of ``n_bytes`` bytes: preamble_bits + 8 * n_bytes.  The CC1101's length byte
+        limits a frame to MAX_FRAME_BYTES (datasheet SWRS061 sec. 15.2, variable packet length mode)."""
+        if not 1 <= n_bytes <= MAX_FRAME_BYTES:
+            raise NodesimError(f"a frame of {n_bytes} bytes does not fit the MAC's frame (allowed: 1..{MAX_FRAME_BYTES} "
+                               f"bytes, the radio's length byte)")
+        return self.preamble_bits + 8 * n_bytes
 
 
 class NodeFailure(_Section):
