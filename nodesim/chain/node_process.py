@@ -99,6 +99,7 @@ class ChainNode:
         self.var_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         # the estimate frames it sent, (R, K, 27) uint8, all zero where it sent none (type byte 0)
         self.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), dtype=np.uint8) if self.fixed else None
+        self.first_tick = int(np.searchsorted(signals.t_s, timeline.present_from_s))  # power-up: the frames' seq 0
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
@@ -301,9 +302,9 @@ class ChainNode:
         """Send the estimate to the node below (or, where this node fell back, to the one after it)."""
         net = self.net
         seq = net.next_seq()
-        if self.fixed:  # the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias), seq = tick k
-            rate_raw = self.fw.outputs[:, nf.OUT_RATE]
-            raws = dict(frame=estimate_frame(self.node_id, k, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
+        if self.fixed:  # the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias); seq = the
+            rate_raw = self.fw.outputs[:, nf.OUT_RATE]  # ticks since power-up
+            raws = dict(frame=estimate_frame(self.node_id, k - self.first_tick, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
                                              rate_raw, self.fw.states[:, fk.I_BIAS]))
             self.frames[valid, k] = raws["frame"][valid]
             rate = self.fw.rate_rad_s(rate_raw)

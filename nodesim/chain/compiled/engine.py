@@ -350,7 +350,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> Non
     node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
     up = (tuple(a.sig.t_s for a in above), _received_frames(net, n, above, offset, src_tick[:, n, :K], bits))
-    sender = (node.node_id, net.forward_every_tick, n == net.n_nodes - 1)
+    sender = (node.node_id, net.forward_every_tick, n == net.n_nodes - 1, node.first_tick)
     inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
 

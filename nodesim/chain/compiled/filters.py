@@ -104,7 +104,7 @@ def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t,
     started at ``n_static``, then predict and the reference phase 1 chose (the encoder reply read ``enc_back_us``
     after the tick for the top node; for the others, the yaw and P_yy words decoded from the estimate frame node
     n - s sent at its tick j, ``up_frames[s - 1][r, j]``).  Records the yaw and P_yy raws, the floats the SimPy
-    engine records and, where it transmits (``sender`` = (node id, every_tick, bottom node): an update applied, or
+    engine records and, where it transmits (``sender`` = (node id, every_tick, bottom node, its power-up tick: seq = k minus it): an update applied, or
     every running tick), the estimate frame it sends into ``frames`` (R, K, 27) uint8 (:mod:`firmware_model.frames`,
     the encoder and decoder the SimPy engine uses).  ``inp``/``out``/``words``: (R, len(INPUTS)) / (R, len(OUTPUTS))
     / (R, 7) work rows, one per realization."""
@@ -135,7 +135,7 @@ def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t,
                 continue
             yaw_raw[r, k], var_raw[r, k] = st[fxk.I_YAW], st[fxk.I_PYY]
             if not sender[2] and k > n_static and (applied[r, k] or sender[1]):
-                frames_.encode_estimate(sender[0], k, np.int64(np.rint(t[k] * 1e6)), st[fxk.I_YAW], st[fxk.I_PYY],
+                frames_.encode_estimate(sender[0], k - sender[3], np.int64(np.rint(t[k] * 1e6)), st[fxk.I_YAW], st[fxk.I_PYY],
                                         o[nf.OUT_RATE], st[fxk.I_BIAS], words[r], frames[r, k])
             yaw[r, k] = fxk.yaw_rad(st, fparams)
             var[r, k] = fxk.yaw_variance_rad2(st, fparams)

@@ -27,7 +27,7 @@ def test_the_sent_frames_carry_the_senders_words_and_the_receivers_use_them(engi
         assert ok.all()
         r, k = np.nonzero(sent)
         assert (values[:, fr.field_index(fr.ESTIMATE, "node")] == n.node_id).all()
-        assert (values[:, fr.field_index(fr.ESTIMATE, "seq")] == k).all()  # the sender's tick counter
+        assert (values[:, fr.field_index(fr.ESTIMATE, "seq")] == k).all()  # the sender's ticks since power-up (lab: from t = 0)
         assert (values[:, fr.field_index(fr.ESTIMATE, "t_read_us")] == np.rint(n.t_s[k] * 1e6)).all()
         assert np.array_equal(n.update_mask[sent], np.ones(sent.sum(), bool))  # sent where it applied an update
     assert not run.nodes[-1].estimate_frames.any()  # the bottom node sends none
