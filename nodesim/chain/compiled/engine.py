@@ -31,7 +31,7 @@ from firmware_model import fixed_kernel
 from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from nodesim.chain import bit_errors
-from nodesim.chain.compiled import filters, float_kernel
+from nodesim.chain.compiled import filters, float_kernel, frame_pass
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
@@ -348,22 +348,32 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> Non
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
-    up = (tuple(a.sig.t_s for a in above), _received_frames(net, n, above, offset, src_tick[:, n, :K], bits))
-    sender = (node.node_id, net.forward_every_tick, n == net.n_nodes - 1, node.first_tick)
+    rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    up_frames = _received_frames(net, n, above, offset, src_tick[:, n, :K], bits)
     inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
+        if n > 0:
+            frame_pass.receive_frames(offset, src_tick[:, n, :K], n_static + 1, k_end, up_frames, *rx, words, r0, r1)
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, n_static,
                                   k_end, n == 0, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
-                                  *up, sender, words, inp, res, node.yaw_raw, node.var_raw, node.frames, node.yaw,
-                                  node.var, node.bias,
-                                  node.ref_yaw, node.ref_var, r0, r1)
+                                  tuple(a.sig.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
+                                  bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
         return counts
 
     fw.counts += sum(threads.map_chunks(run, R))
+    node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
+    if n < net.n_nodes - 1:  # the bottom node sends nothing
+        status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
+            node.node_id, node.first_tick, net.forward_every_tick, n_static + 1, k_end, node.applied, t, node.yaw_raw,
+            node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
+        if status < 0:
+            name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
+            raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
+                               f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None):
