@@ -37,7 +37,10 @@ Values that do not fit their field (our policy, one per field, ``POLICY`` in the
 The njit kernels (:func:`crc16`, :func:`encode_frame`, :func:`decode_frame`, :func:`encode_lanes`,
 :func:`decode_lanes`) take the layout array (``LAYOUTS[kind]``, int64 rows ``(offset, width, signed,
 policy)``) so a compiled caller can use them directly; :func:`encode` / :func:`decode` are the checked Python
-entry points over lanes ``values (R, n_fields)`` int64 <-> ``frames (R, n_bytes)`` uint8.
+entry points over lanes ``values (R, n_fields)`` int64 <-> ``frames (R, n_bytes)`` uint8.  The chain's
+estimate frames go through :func:`encode_estimate` / :func:`decode_estimate` (one lane; the SimPy engine through
+:func:`encode_estimates` and :func:`decode_lanes`, the compiled engine from its own loops): ``seq`` is the sender's
+tick count since power-up (mod 2^16), ``t_read_us`` its tick time in microseconds.
 """
 
 from __future__ import annotations
