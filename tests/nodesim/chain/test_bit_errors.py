@@ -179,3 +179,22 @@ def test_rejected_frames_are_retried_and_nothing_else_is_lost():
 def test_bad_bit_errors_settings_are_refused(over, match):
     with pytest.raises(NodesimError, match=match):
         Scenario().with_overrides(**over)
+
+
+@pytest.mark.parametrize("engine", ["event", "compiled"])
+def test_bit_errors_are_seeded_per_realization(engine):
+    """Realization 2 of a 3-realization run is the 1-realization run with first_realization = 2 (its own
+    bit-error keys), and another seed draws other errors."""
+    over = {**GOOD, "radio.soil.distance_m": 2.0, "radio.soil.vwc": 0.275, "mac.bit_errors": True,
+            "simulation.engine": engine}
+    batch = simulate_chain(Scenario().with_overrides(**{**over, "simulation.realizations": 3}))
+    one = simulate_chain(Scenario().with_overrides(**{**over, "simulation.realizations": 1,
+                                                      "simulation.first_realization": 2}))
+    other = simulate_chain(Scenario().with_overrides(**{**over, "simulation.realizations": 3, "seed": 99}))
+    for a, b in zip(batch.down_links, one.down_links):
+        assert a.stats.crc_rejected[2] == b.stats.crc_rejected[0] and a.stats.attempts[2] == b.stats.attempts[0]
+    for a, b in zip(batch.nodes, one.nodes):
+        assert np.array_equal(a.yaw_est_rad[2], b.yaw_est_rad[0]) and np.array_equal(a.estimate_frames[2],
+                                                                                      b.estimate_frames[0])
+    assert any(not np.array_equal(a.stats.crc_rejected, b.stats.crc_rejected)
+               for a, b in zip(batch.down_links[1:], other.down_links[1:]))
