@@ -12,7 +12,9 @@ channels, links with their draw streams, faults: the same objects the SimPy engi
 Bit-identical to the SimPy engine (tests/nodesim/chain/test_compiled.py compares every record).  Covered:
 lab motion (every node present from t = 0, node 1 on top), every schedule, simple and channel links, the MAC,
 node failures, outages, bursts, clock steps and the fallback, float and fixed filters (default fixed-point
-policy).  Drilling runs (tube insertions, holds, survey stops and surveys going up) stay on the SimPy engine.
+policy), the fixed firmware's estimate frames as bytes (:mod:`.frame_pass`) and ``mac.bit_errors`` (phase 1 decides
+each try on its error pattern, phase 2 applies the flips the CRC let through to the received bytes,
+:mod:`nodesim.chain.bit_errors`).  Drilling runs (tube insertions, holds, survey stops and surveys going up) stay on the SimPy engine.
 Uniform draws are buffered per link and realization from the link's own stream; a lane that runs out makes
 phase 1 start again with a longer buffer (same stream, same numbers).
 """
