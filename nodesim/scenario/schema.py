@@ -312,6 +312,11 @@ class Scenario(_Section):
                 f"the encoder request, reply and processing must fit in one firmware tick "
                 f"(allowed: 2 x link_delay_s + processing_s < {dt:.4g} s at {self.chain.firmware_rate_hz} Hz)"
             )
+        if self.mac.bit_errors and (self.radio.model != "channel" or self.filter.implementation != "fixed"):
+            raise ValueError(
+                f"mac.bit_errors = true needs radio.model = 'channel' (the bit error rate comes from its link "
+                f"budget; got {self.radio.model!r}) and filter.implementation = 'fixed' (the frames with bytes; "
+                f"got {self.filter.implementation!r})")
         if self.motion.kind == "drilling":
             needed = self.motion.drilling_duration_s(self.chain.nodes)
             if self.simulation.duration_s < needed:
