@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import leading_zeros
 
 from firmware_model.errors import FirmwareError
 from firmware_model.fixed_kernel import shift_right_round
@@ -79,13 +80,10 @@ def wrap32(x):
 
 @njit(cache=True, inline="always")
 def norm_shift(m, bits):
-    """s such that m * 2^s lies in [2^(bits-1), 2^bits) for m >= 1 (s < 0: a right shift)."""
-    s = 0
-    while (m >> -s if s < 0 else m << s) >= (np.int64(1) << bits):
-        s -= 1
-    while (m << s if s >= 0 else m >> -s) < (np.int64(1) << (bits - 1)):
-        s += 1
-    return s
+    """s such that m * 2^s lies in [2^(bits-1), 2^bits) for m >= 1 (s < 0: a right shift): the shift that gives
+    m ``bits`` significant bits, ``bits - bit_length(m)``, bit_length(m) = 64 - clz(m) (a floor right shift of
+    m >= 1 by t keeps bit_length(m) - t bits; the C twin steps the shift one bit at a time to the same s)."""
+    return bits - (64 - leading_zeros(m))
 
 
 @njit(cache=True, inline="always")
@@ -94,37 +92,68 @@ def shift(x, s):
     return x << s if s >= 0 else x >> -s
 
 
+ZERO_LANE = 1 << 8  # vectoring_lanes: the pre-shift slot of a zero vector (real shifts lie in -34..28)
+
+
+@njit(cache=True, _nrt=False)
+def vectoring_lanes(x, y, iterations, angle, shift_s):
+    """:func:`vectoring` of every lane j < len(x) at once: (x[j], y[j]) -> angle[j] and, in place, x[j] =
+    the magnitude (y and ``shift_s`` are work rows; int64 arrays of one length).  Pre-shift and pre-rotation
+    lane by lane, then each micro-rotation over all lanes (independent lanes: the compiler runs them in SIMD
+    registers, the MCU's one vector after the other gives the same integers), then the gain lane by lane."""
+    if iterations < MIN_ITERATIONS or iterations > MAX_ITERATIONS:
+        raise FirmwareError("cordic: iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
+    n = x.shape[0]
+    for j in range(n):
+        xj, yj = x[j], y[j]
+        ax, ay = abs(xj), abs(yj)
+        if ax > MAX_INPUT or ay > MAX_INPUT:
+            raise FirmwareError("cordic: an input beyond +/-(2^62 - 1)")
+        m = max(ax, ay)
+        if m == 0:  # angle 0, magnitude 0 (math.atan2(0, 0) = 0): the iterations run on zeros, the result is set below
+            shift_s[j] = ZERO_LANE
+            x[j], y[j], angle[j] = 0, 0, 0
+            continue
+        s = norm_shift(m, NORM_BITS)
+        shift_s[j] = s
+        xj, yj = shift(xj, s), shift(yj, s)
+        # the pre-rotation without branches (the quadrant of a spinning string's toolface is not predictable):
+        # sx, sy = -1 where x < 0, y < 0 (else 0); for x < 0: x <- |y|, y <- -x (y >= 0) or x (y < 0), z <- +/-2^30
+        sx, sy = xj >> 63, yj >> 63
+        x[j] = (xj & ~sx) | (((yj ^ sy) - sy) & sx)
+        y[j] = (yj & ~sx) | (((xj ^ ~sy) + 1 + sy) & sx)
+        angle[j] = ((QUARTER_TURN ^ sy) - sy) & sx
+    for i in range(iterations):  # branchless: d = y >> 63 is 0 (y >= 0) or -1, (v ^ d) - d is v or -v
+        a = ATAN[i]
+        for j in range(n):
+            xj, yj = x[j], y[j]
+            d = yj >> 63
+            x[j] = xj + (((yj >> i) ^ d) - d)
+            y[j] = yj - (((xj >> i) ^ d) - d)
+            angle[j] += (a ^ d) - d
+    k_inv = K_INV[iterations]
+    for j in range(n):
+        s = shift_s[j]
+        if s == ZERO_LANE:
+            x[j], angle[j] = 0, 0
+            continue
+        mag = shift_right_round(x[j] * k_inv, GAIN_FRAC)
+        if s > 0:
+            mag = shift_right_round(mag, s)
+        elif s < 0:
+            mag = mag << -s
+        x[j], angle[j] = mag, wrap32(angle[j])
+
+
 @njit(cache=True)
 def vectoring(x, y, iterations):
     """(angle, magnitude) of the vector (x, y) (int64 count sums, |x|, |y| <= 2^62 - 1): angle = atan2(y, x) as a
-    wrapped 32-bit binary angle, magnitude = |(x, y)| in the inputs' units (module docstring)."""
-    if iterations < MIN_ITERATIONS or iterations > MAX_ITERATIONS:
-        raise FirmwareError("cordic: iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
-    ax, ay = abs(x), abs(y)
-    if ax > MAX_INPUT or ay > MAX_INPUT:
-        raise FirmwareError("cordic: an input beyond +/-(2^62 - 1)")
-    m = max(ax, ay)
-    if m == 0:
-        return np.int64(0), np.int64(0)
-    s = norm_shift(m, NORM_BITS)
-    x, y = shift(x, s), shift(y, s)
-    z = np.int64(0)
-    if x < 0:
-        if y >= 0:
-            x, y, z = y, -x, np.int64(QUARTER_TURN)
-        else:
-            x, y, z = -y, x, np.int64(-QUARTER_TURN)
-    for i in range(iterations):
-        if y >= 0:
-            x, y, z = x + (y >> i), y - (x >> i), z + ATAN[i]
-        else:
-            x, y, z = x - (y >> i), y + (x >> i), z - ATAN[i]
-    mag = shift_right_round(x * K_INV[iterations], GAIN_FRAC)
-    if s > 0:
-        mag = shift_right_round(mag, s)
-    elif s < 0:
-        mag = mag << -s
-    return wrap32(z), mag
+    wrapped 32-bit binary angle, magnitude = |(x, y)| in the inputs' units (module docstring); one lane of
+    :func:`vectoring_lanes`."""
+    w = np.empty((4, 1), dtype=np.int64)
+    w[0, 0], w[1, 0] = x, y
+    vectoring_lanes(w[0], w[1], iterations, w[2], w[3])
+    return w[2, 0], w[0, 0]
 
 
 def angle_rad(raw) -> np.ndarray:

@@ -25,7 +25,12 @@ The primitives and the raw steps are plain njit functions called from the caller
 inlined at numba's IR level (``inline="always"``) until 2026-12-01: that made the compiled engine take ~3 min
 to compile on a fresh machine against ~40 s without it, and measured no faster (2000 predict+update steps of
 one filter: 0.25 ms without, 0.41 ms with, on a noisy host; the chain benchmarks within their noise).
-A caller's njit loop calls ``predict``/``update`` directly.
+A caller's njit loop calls ``predict``/``update`` directly.  Every kernel here (and in
+:mod:`firmware_model.node_firmware`) is compiled with ``_nrt=False``: none allocates, and without it a kernel
+compiled first from an NRT caller (a test, a Python call) is cached with a reference-count increment and
+decrement of every array argument around each inner call, which the engine's ``_nrt=False`` loop then loads
+from the cache: the same firmware tick measured 84 ns or 230 ns per node-tick depending on which process had
+compiled the kernels first (numba only passes a caller's ``_nrt=False`` down to callees it compiles itself).
 
 The class applies an update mask after computing every lane: its overflow counts include lanes whose update
 is discarded.  ``update`` here is the class's update of one lane with the mask True.
@@ -118,13 +123,13 @@ def counts_dict(counts) -> dict[str, int]:
 
 
 # ---- primitives on int64 scalars ---------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def shift_right_round(x, s):
     """x / 2^s rounded half to even (s >= 1), no saturation: ``(x + ((x >> s) & 1) + (1 << (s-1)) - 1) >> s``."""
     return (x + (((x >> s) & 1) + (np.int64(1) << (s - 1)) - 1)) >> s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def div_round(n, d):
     """n / d rounded half to even for d > 0: the floor quotient, then the remainder decides (C: fx_div_round)."""
     q = n // d
@@ -134,7 +139,7 @@ def div_round(n, d):
     return q
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _sat(x, frac_in, w, f, counts, site):
     """fixedpoint._requantize with HALF_EVEN and SATURATE of the int64 intermediate ``x``."""
     hi = (np.int64(1) << (w - 1)) - 1
@@ -164,7 +169,7 @@ def _sat(x, frac_in, w, f, counts, site):
     return x
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _aligned(a, fa, b, fb, sign):
     """((int64_t)a << sa) +/- ((int64_t)b << sb) in the finer format; returns (sum, its frac bits)."""
     if abs(fa - fb) > MAX_ALIGN:
@@ -174,24 +179,24 @@ def _aligned(a, fa, b, fb, sign):
     return (xa + xb if sign > 0 else xa - xb), fm
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _add(a, fa, b, fb, p, i, counts, site):
     x, fm = _aligned(a, fa, b, fb, 1)
     return _sat(x, fm, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _sub(a, fa, b, fb, p, i, counts, site):
     x, fm = _aligned(a, fa, b, fb, -1)
     return _sat(x, fm, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _mul(a, fa, b, fb, p, i, counts, site):
     return _sat(a * b, fa + fb, p[i], p[i + 1], counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _div(a, fa, b, fb, p, i, counts, site):
     """fixedpoint.div with HALF_EVEN and SATURATE."""
     w, f = p[i], p[i + 1]
@@ -211,14 +216,14 @@ def _div(a, fa, b, fb, p, i, counts, site):
     return _sat(div_round(n, d), f, w, f, counts, site)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _wrap(x, w):
     """Two's-complement wrap into ``w`` bits (the binary angle)."""
     x &= (np.int64(1) << w) - 1
     return x - ((x >> (w - 1)) << w)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _from_float_sat(v, w, f, counts, site):
     """fixedpoint.from_float (HALF_EVEN, SATURATE) of one finite double."""
     y = np.rint(math.ldexp(v, f))
@@ -233,7 +238,7 @@ def _from_float_sat(v, w, f, counts, site):
     return np.int64(y)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _from_float_wrap(v, w, f):
     """fixedpoint.from_float (HALF_EVEN, WRAP, no counter) of one finite double: the exact residue modulo 2**w.
     A value whose scaling overflows to infinity gives 0, as the class does (fmod(inf) = NaN, cast to INT64_MIN
@@ -247,13 +252,13 @@ def _from_float_wrap(v, w, f):
     return _wrap(np.int64(np.fmod(y, math.ldexp(1.0, w))), w)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _to_float(raw, f):
     return math.ldexp(float(raw), -f)
 
 
 # ---- the filter ----------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _predict_raw(state, rate_raw, params, counts):
     """FixedYawFilter.predict_raw of one lane, the gyro rate already a raw word in ``formats.rate``."""
     p = params
@@ -272,7 +277,7 @@ def _predict_raw(state, rate_raw, params, counts):
     state[I_YAW], state[I_PYY], state[I_PYB], state[I_PBB] = new_yaw, max(y, 1), yb, max(bb, 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def predict(state, rate_rad_s, params, counts):
     """FixedYawFilter.predict of one lane: the rate in rad/s crosses into Q deg/s (site "gyro rate")."""
     v = rate_rad_s * RAD_TO_DEG
@@ -281,7 +286,7 @@ def predict(state, rate_rad_s, params, counts):
     _predict_raw(state, _from_float_sat(v, params[W_RATE], params[W_RATE + 1], counts, S_GYRO), params, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _update_raw(state, ref_raw, r_raw, params, counts):
     """FixedYawFilter.update_raw of one lane (mask True): reference as a binary angle, variance in P_yy's format."""
     p = params
@@ -302,7 +307,7 @@ def _update_raw(state, ref_raw, r_raw, params, counts):
     state[I_YAW], state[I_BIAS], state[I_PYY], state[I_PYB], state[I_PBB] = new_yaw, new_bias, max(yy, 1), yb, max(bb, 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def update(state, ref_rad, var_rad2, params, counts):
     """FixedYawFilter.update of one lane with the mask True."""
     if not (math.isfinite(ref_rad) and math.isfinite(var_rad2)):
@@ -317,31 +322,31 @@ def update(state, ref_rad, var_rad2, params, counts):
     _update_raw(state, ref_raw, r_raw, params, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def predict_raw_lanes(states, rate_raws, params, counts):
     """:func:`_predict_raw` of every lane (rows of ``states``); ``counts`` summed over the lanes."""
     for r in range(states.shape[0]):
         _predict_raw(states[r], rate_raws[r], params, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def update_raw_lanes(states, ref_raws, r_raws, params, counts):
     """:func:`_update_raw` of every lane (rows of ``states``); ``counts`` summed over the lanes."""
     for r in range(states.shape[0]):
         _update_raw(states[r], ref_raws[r], r_raws[r], params, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def yaw_rad(state, params):
     """FixedYawFilter.yaw_rad of one lane (binary angle in radians, [-pi, pi))."""
     return _to_float(state[I_YAW], params[W_YAW + 1]) * TURN_RAD
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def bias_rad_s(state, params):
     return _to_float(state[I_BIAS], params[W_BIAS + 1]) / RAD_TO_DEG
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def yaw_variance_rad2(state, params):
     return _to_float(state[I_PYY], params[W_YY + 1]) / RAD2_TO_DEG2

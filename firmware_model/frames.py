@@ -37,7 +37,10 @@ Values that do not fit their field (our policy, one per field, ``POLICY`` in the
 The njit kernels (:func:`crc16`, :func:`encode_frame`, :func:`decode_frame`, :func:`encode_lanes`,
 :func:`decode_lanes`) take the layout array (``LAYOUTS[kind]``, int64 rows ``(offset, width, signed,
 policy)``) so a compiled caller can use them directly; :func:`encode` / :func:`decode` are the checked Python
-entry points over lanes ``values (R, n_fields)`` int64 <-> ``frames (R, n_bytes)`` uint8.
+entry points over lanes ``values (R, n_fields)`` int64 <-> ``frames (R, n_bytes)`` uint8.  The chain's
+estimate frames go through :func:`encode_estimate` / :func:`decode_estimate` (one lane; the SimPy engine through
+:func:`encode_estimates` and :func:`decode_lanes`, the compiled engine from its own loops): ``seq`` is the sender's
+tick count since power-up (mod 2^16), ``t_read_us`` its tick time in microseconds.
 """
 
 from __future__ import annotations
@@ -107,19 +110,27 @@ def _crc_table() -> np.ndarray:
 
 
 CRC_TABLE = _crc_table()
+# T2[x]: the register after byte x followed by a zero byte, (T[x] << 8) ^ T[T[x] >> 8] (mod 2^16)
+CRC_TABLE2 = np.array([((CRC_TABLE[x] << 8) & 0xFFFF) ^ CRC_TABLE[CRC_TABLE[x] >> 8] for x in range(256)],
+                      dtype=np.int64)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined (with the codecs below) into the engines' loops: ~2.5x faster
 def crc16(buf, n):
-    """CRC-16/CCITT-FALSE of ``buf[:n]`` (uint8), table-driven: ``c = (c << 8) ^ T[(c >> 8) ^ byte]`` from
-    ``c = 0xFFFF``, ``T[b]`` the MSB-first division of ``b << 8`` by x^16 + x^12 + x^5 + 1 (0x1021)."""
+    """CRC-16/CCITT-FALSE of ``buf[:n]`` (uint8), table-driven: byte by byte ``c = (c << 8) ^ T[(c >> 8) ^ b]``
+    from ``c = 0xFFFF``, ``T[b]`` the MSB-first division of ``b << 8`` by x^16 + x^12 + x^5 + 1 (0x1021); two bytes
+    a step (slicing by two, the same register): ``c = T2[(c >> 8) ^ b0] ^ T[(c & 0xFF) ^ b1]``."""
     c = 0xFFFF
-    for i in range(n):
+    i = 0
+    while i + 1 < n:
+        c = CRC_TABLE2[(c >> 8) ^ np.int64(buf[i])] ^ CRC_TABLE[(c & 0xFF) ^ np.int64(buf[i + 1])]
+        i += 2
+    if i < n:
         c = ((c << 8) & 0xFFFF) ^ CRC_TABLE[((c >> 8) ^ np.int64(buf[i])) & 0xFF]
     return c
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def encode_frame(values, layout, kind, out):
     """Write one frame of type ``kind`` into ``out`` (uint8, the frame length) from ``values`` (int64, one per
     layout row).  Returns the number of saturated fields (>= 0), or ``-(1 + i)`` if field ``i`` has policy
@@ -149,7 +160,7 @@ def encode_frame(values, layout, kind, out):
     return n_sat
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def decode_frame(frame, layout, kind, values):
     """Read the fields of one frame into ``values`` (int64); True iff the CRC matches and the type byte is
     ``kind``.  The fields are decoded whatever the validity (sign-extended for a signed field)."""
@@ -165,6 +176,41 @@ def decode_frame(frame, layout, kind, values):
     n = frame.shape[0] - 2
     got = np.int64(frame[n]) | (np.int64(frame[n + 1]) << 8)
     return got == crc16(frame, n) and np.int64(frame[0]) == kind
+
+
+ESTIMATE_LAYOUT = LAYOUTS[ESTIMATE]
+EST_YAW, EST_PYY = field_index(ESTIMATE, "yaw"), field_index(ESTIMATE, "P_yy")  # columns of the decoded words
+
+
+@njit(cache=True)
+def encode_estimate(node, seq, t_read_us, yaw, p_yy, rate, bias, values, out):
+    """The estimate frame of one lane into ``out`` (27 uint8) through :func:`encode_frame`: node id, the sender's
+    tick counter as ``seq`` (mod 2^16), its microsecond timer ``t_read_us`` (mod 2^32) and the firmware words
+    (yaw binary angle, P_yy, bias-corrected rate, bias); ``values`` (7,) int64 is the work row.  Both engines
+    send their estimates through it (the SimPy engine by :func:`encode_estimates`).  Returns
+    :func:`encode_frame`'s status (< 0: a word does not fit its field, the frame must not be sent)."""
+    values[0], values[1], values[2], values[3] = node, seq, t_read_us, yaw
+    values[4], values[5], values[6] = p_yy, rate, bias
+    return encode_frame(values, ESTIMATE_LAYOUT, ESTIMATE, out)
+
+
+@njit(cache=True)
+def encode_estimates(node, seq, t_read_us, yaw, p_yy, rate, bias, frames, values):
+    """:func:`encode_estimate` lane by lane (``yaw`` ... ``bias`` (R,), ``frames`` (R, 27), ``values`` (R, 7));
+    returns the lowest status (< 0: some lane's word does not fit)."""
+    worst = 0
+    for r in range(frames.shape[0]):
+        s = encode_estimate(node, seq, t_read_us, yaw[r], p_yy[r], rate[r], bias[r], values[r], frames[r])
+        worst = min(worst, s)
+    return worst
+
+
+@njit(cache=True)
+def decode_estimate(frame, values):
+    """(yaw, P_yy) words of an estimate frame through :func:`decode_frame` (``values`` (7,) int64, the work row)
+    and whether its CRC and type byte hold."""
+    ok = decode_frame(frame, ESTIMATE_LAYOUT, ESTIMATE, values)
+    return values[EST_YAW], values[EST_PYY], ok
 
 
 @njit(cache=True)

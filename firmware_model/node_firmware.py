@@ -79,13 +79,13 @@ MAX_TRANSFER_US = (1 << 24) - 1
 US_PER_TURN_DEG = 360_000_000  # 360 deg x 1e6 us
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def counts_to_rate(count_sum, n, frac, sens_x10):
     """round_he(count_sum * 10 * 2^frac / (n * S10)): the mean of n int16 samples in Q(frac) deg/s (n >= 1)."""
     return fk.div_round(count_sum * 10 * (np.int64(1) << frac), n * sens_x10)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def read_gyro(state, gyro_z_sum, n, params, fparams, counts) -> None:
     """Every tick (the IMU driver): the tick's rate from its z-gyro count sum over n samples; the previous one is
     kept for the extrapolated rate compensation."""
@@ -95,7 +95,7 @@ def read_gyro(state, gyro_z_sum, n, params, fparams, counts) -> None:
     state[S_RATE] = fk._sat(counts_to_rate(gyro_z_sum, n, fr, params[P_SENS]), fr, wr, fr, counts, X_RATE)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def init_lane(state) -> None:
     """A node at power-up: static window, no bias samples yet, no rate read yet."""
     for i in range(STATE_SIZE):
@@ -103,7 +103,7 @@ def init_lane(state) -> None:
     state[S_HAVE_LAST] = -1  # becomes 0 at the first read, 1 from the second on
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def accumulate_bias(state, gyro_z_sum, n) -> None:
     """One static-window tick (after :func:`read_gyro`): the integer sums of the initial bias (thesis 4.2.3,
     simple averaging of the stationary rates)."""
@@ -111,7 +111,7 @@ def accumulate_bias(state, gyro_z_sum, n) -> None:
     state[S_BIAS_N] += n
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def start_filter(state, yaw0_raw, params, fparams, counts) -> None:
     """End of the static window: bias = the mean rate over it (0 without samples), yaw = the encoder's binary
     angle, P = P0."""
@@ -126,13 +126,13 @@ def start_filter(state, yaw0_raw, params, fparams, counts) -> None:
     state[S_RUNNING] = 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def predict(state, fparams, counts) -> None:
     """Time update with the rate :func:`read_gyro` read this tick."""
     fk._predict_raw(state, state[S_RATE], fparams, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def transfer_us_sat(transfer_us, counts):
     """The transfer time as the node's timer holds it: 0 .. 2^24 - 1 us (longer ones saturate, counted)."""
     if transfer_us > MAX_TRANSFER_US:
@@ -144,7 +144,7 @@ def transfer_us_sat(transfer_us, counts):
     return transfer_us
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def advance(yaw_raw, omega_raw, transfer_us, fparams, counts):
     """Eq 3.29 in binary-angle arithmetic (module docstring): yaw + omega transfer.  The increment is rounded, not
     saturated: a binary angle is exact modulo one turn, so any advance wraps correctly."""
@@ -155,7 +155,7 @@ def advance(yaw_raw, omega_raw, transfer_us, fparams, counts):
     return fk._wrap(yaw_raw + inc, wy)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def omega(state, params, fparams, counts, transfer_us):
     """The node's bias-corrected rate (Q F_rate deg/s) used to advance a forwarded estimate; extrapolated to the
     transfer's middle when configured (module docstring)."""
@@ -168,7 +168,7 @@ def omega(state, params, fparams, counts, transfer_us):
     return w
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def reference_variance(var_prev_raw, transfer_us, params, fparams, counts):
     """R = P_prev + (transfer sigma_rate)^2 + sigma_off^2 in P_yy's format (thesis digest 2.6)."""
     fyy, fd = fparams[fk.W_YY + 1], params[P_SIG_D_F]
@@ -178,7 +178,7 @@ def reference_variance(var_prev_raw, transfer_us, params, fparams, counts):
     return fk._add(r, fyy, params[P_OFF2], fyy, fparams, fk.W_YY, counts, X_R_SUM)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def forwarded_update(state, up_yaw_raw, up_var_raw, transfer_us, params, fparams, counts):
     """Update from the estimate frame of the node above, read ``transfer_us`` before this tick; returns
     (reference, R) raws as applied."""
@@ -190,7 +190,7 @@ def forwarded_update(state, up_yaw_raw, up_var_raw, transfer_us, params, fparams
     return ref, r
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def encoder_update(state, enc_yaw_raw, enc_rate_raw, back_us, params, fparams, counts):
     """Update from the encoder reply read ``back_us`` after this tick: ref = psi_enc - rate_enc back, R = q^2/12;
     returns (reference, R) raws as applied."""
@@ -201,7 +201,7 @@ def encoder_update(state, enc_yaw_raw, enc_rate_raw, back_us, params, fparams, c
     return ref, r
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def estimate_rate(state, params, fparams, counts):
     """The rate field of the estimate frame: the bias-corrected tick rate (no extrapolation)."""
     fr, fb = fparams[fk.W_RATE + 1], fparams[fk.W_BIAS + 1]
@@ -219,7 +219,7 @@ OUTPUTS = ("applied", "ref_raw", "r_raw", "rate_raw")
 OUT_APPLIED, OUT_REF, OUT_R, OUT_RATE = range(len(OUTPUTS))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def node_tick(state, params, fparams, counts, inp, out) -> None:
     """One firmware tick of one lane (the C reference's ``node_firmware_tick``): read the gyro; in the static
     window accumulate the bias; at its end start the filter from the encoder (``yaw0_raw``); holding (a tube
@@ -257,7 +257,7 @@ def node_tick(state, params, fparams, counts, inp, out) -> None:
         out[OUT_RATE] = estimate_rate(state, params, fparams, counts)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def node_tick_lanes(states, params, fparams, counts, inputs, outputs) -> None:
     """:func:`node_tick` for every lane r (``states`` (R, STATE_SIZE), ``inputs`` (R, len(INPUTS)), ``outputs``
     (R, len(OUTPUTS))): the SimPy engine's call, one per node tick for all realizations."""

@@ -97,6 +97,9 @@ MA_RING = len(MA_STATE)
 ALIGN_IDLE, ALIGN_COLLECTING, ALIGN_APPLIED = 0, 1, 2  # AL_PHASE: no full average yet, extremes held, offset applied
 ALIGN_FRAC = 8  # fraction bits of the tick-mean counts, their average, extremes and offsets (LSB per sample)
 ALIGN_MAX_SUM = (1 << 40)  # |f'_x|, |f'_y| limit on an alignment tick: |m| <= 2^48, a ring sum of N <= 2^14 < 2^62
+W_FX, W_FY, W_FZ, W_YAW32, W_INC, W_AZI, W_SHIFT = range(7)  # rows of resolve_cordic_lanes' work array
+WORK_ROWS = 7
+BLOCK = 64  # fixed_surveys resolves this many ticks at once (lanes of resolve_cordic_lanes)
 
 
 def ma_state_size(points: int) -> int:
@@ -113,18 +116,35 @@ def yaw_to_ba32(yaw_raw, yaw_frac_bits):
     return y & MASK32
 
 
+@njit(cache=True, _nrt=False)
+def resolve_cordic_lanes(work, iterations):
+    """(I, A) binary angles by integer CORDIC (module docstring) of every lane j of ``work`` (int64 (WORK_ROWS, n)):
+    rows W_FX, W_FY, W_FZ the count sums and W_YAW32 the yaw binary angle in, rows W_INC, W_AZI the result out
+    (the other rows and the inputs are overwritten); both vectorings run over all lanes at once
+    (:func:`firmware_model.cordic.vectoring_lanes`)."""
+    fx, fy, fz = work[W_FX], work[W_FY], work[W_FZ]
+    for j in range(fx.shape[0]):
+        m = max(abs(fx[j]), abs(fy[j]), abs(fz[j]))
+        if m > cordic.MAX_INPUT:
+            raise FirmwareError("survey: an accelerometer sum beyond +/-(2^62 - 1)")
+        if m > 0:
+            s = cordic.norm_shift(m, SURVEY_NORM_BITS)
+            fx[j], fy[j], fz[j] = cordic.shift(fx[j], s), cordic.shift(fy[j], s), cordic.shift(fz[j], s)
+    cordic.vectoring_lanes(fx, fy, iterations, work[W_AZI], work[W_SHIFT])  # toolface -> W_AZI, h -> W_FX
+    cordic.vectoring_lanes(fz, fx, iterations, work[W_INC], work[W_SHIFT])  # inclination -> W_INC
+    inc, azi, yaw32 = work[W_INC], work[W_AZI], work[W_YAW32]
+    for j in range(inc.shape[0]):
+        inc[j], azi[j] = abs(inc[j]), (azi[j] + yaw32[j]) & MASK32
+
+
 @njit(cache=True)
 def resolve_cordic(fx, fy, fz, yaw32, iterations):
-    """(I, A) binary angles from count sums by integer CORDIC (module docstring)."""
-    m = max(abs(fx), abs(fy), abs(fz))
-    if m > cordic.MAX_INPUT:
-        raise FirmwareError("survey: an accelerometer sum beyond +/-(2^62 - 1)")
-    if m > 0:
-        s = cordic.norm_shift(m, SURVEY_NORM_BITS)
-        fx, fy, fz = cordic.shift(fx, s), cordic.shift(fy, s), cordic.shift(fz, s)
-    toolface, h = cordic.vectoring(fx, fy, iterations)
-    inc, _ = cordic.vectoring(fz, h, iterations)
-    return abs(inc), (toolface + yaw32) & MASK32
+    """(I, A) binary angles from count sums by integer CORDIC (module docstring): one lane of
+    :func:`resolve_cordic_lanes`."""
+    work = np.empty((WORK_ROWS, 1), dtype=np.int64)
+    work[W_FX, 0], work[W_FY, 0], work[W_FZ, 0], work[W_YAW32, 0] = fx, fy, fz, yaw32
+    resolve_cordic_lanes(work, iterations)
+    return work[W_INC, 0], work[W_AZI, 0]
 
 
 @njit(cache=True)
@@ -150,7 +170,7 @@ def resolve(fx, fy, fz, yaw32, mode, iterations):
     raise FirmwareError("survey: mode must be MODE_CORDIC (0) or MODE_FPU (1)")
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def ma_reset(state):
     """A node at power-up: empty averages, no previous yaw, no alignment offset."""
     for i in range(MA_RING):
@@ -158,7 +178,7 @@ def ma_reset(state):
     state[MA_PREV_YAW] = -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def ma_push(state, points, inc, azi):
     """Add one survey (I, A) to the moving average, return (I_avg, A_avg) (module docstring)."""
     head = state[MA_HEAD]
@@ -169,7 +189,7 @@ def ma_push(state, points, inc, azi):
         state[MA_COUNT] += 1
     state[ri + head], state[ra + head] = inc, azi
     state[MA_SUM_I] += inc
-    state[MA_HEAD] = (head + 1) % points
+    state[MA_HEAD] = head + 1 if head + 1 < points else 0  # (head + 1) mod points, without a division
     n = state[MA_COUNT]
     d = np.int64(0)
     for j in range(n):
@@ -177,7 +197,7 @@ def ma_push(state, points, inc, azi):
     return div_round(state[MA_SUM_I], n), (azi + div_round(d, n)) & MASK32
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def mid_yaw(state, yaw32):
     """The yaw at the middle of this tick's sample window from the previous and this tick's yaw words (module
     docstring); remembers this one."""
@@ -188,7 +208,7 @@ def mid_yaw(state, yaw32):
     return (prev + shift_right_round(wrap32(yaw32 - prev), 1)) & MASK32
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def align_collect(state, points, fx, fy, n):
     """One alignment-window tick: push the tick-mean x, y counts into the alignment's N-point average and, once it
     is full, into its extremes (module docstring)."""
@@ -217,7 +237,7 @@ def align_collect(state, points, fx, fy, n):
         state[AL_MAX_Y], state[AL_MIN_Y] = max(state[AL_MAX_Y], ay), min(state[AL_MIN_Y], ay)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def align_correction(state, n):
     """(x, y) count-sum corrections round_he(off n / 2^8) of a tick after the window (0 without an offset); the
     first such tick turns the extremes into the offsets (module docstring)."""
@@ -233,11 +253,10 @@ def align_correction(state, n):
     return shift_right_round(ox * n, ALIGN_FRAC), shift_right_round(oy * n, ALIGN_FRAC)
 
 
-@njit(cache=True)
-def survey_tick(state, points, fx, fy, fz, n, yaw32, aligning, mode, iterations):
-    """One tick of the survey (the C reference's ``survey_tick``): the count sums of n >= 1 samples, the tick's
-    yaw (ba32) and whether it lies in the alignment window -> the moving-averaged (I, A) words (module
-    docstring: alignment offset, mid-window yaw, eqs 1.1-1.3, N-point average)."""
+@njit(cache=True, _nrt=False)
+def survey_prepare(state, points, fx, fy, fz, n, yaw32, aligning):
+    """The tick's resolver inputs: the count sums of n >= 1 samples after the alignment offset (collected in the
+    window, subtracted after it) and the mid-window yaw (ba32) -> (f'_x, f'_y, f'_z, psi_mid) (module docstring)."""
     if n < 1:
         raise FirmwareError("survey: a tick with no sample (n < 1)")
     psi = mid_yaw(state, yaw32)
@@ -246,6 +265,16 @@ def survey_tick(state, points, fx, fy, fz, n, yaw32, aligning, mode, iterations)
     else:
         cx, cy = align_correction(state, n)
         fx, fy = fx - cx, fy - cy
+    return fx, fy, fz, psi
+
+
+@njit(cache=True)
+def survey_tick(state, points, fx, fy, fz, n, yaw32, aligning, mode, iterations):
+    """One tick of the survey (the C reference's ``survey_tick``): the count sums of n >= 1 samples, the tick's
+    yaw (ba32) and whether it lies in the alignment window -> the moving-averaged (I, A) words (module
+    docstring: alignment offset, mid-window yaw, eqs 1.1-1.3, N-point average); :func:`fixed_surveys` runs the
+    same three steps with the resolution of 64 ticks at once."""
+    fx, fy, fz, psi = survey_prepare(state, points, fx, fy, fz, n, yaw32, aligning)
     i_raw, a_raw = resolve(fx, fy, fz, psi, mode, iterations)
     return ma_push(state, points, i_raw, a_raw)
 
@@ -263,13 +292,25 @@ def fixed_surveys(accel_counts, yaw_raw, samples, align_lo, align_hi, points, mo
         raise FirmwareError("survey: cordic iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
     R, K = yaw_raw.shape
     state = np.zeros(MA_RING + 4 * points, dtype=np.int64)  # ma_state_size(points)
+    work = np.zeros((WORK_ROWS, BLOCK), dtype=np.int64)
     for r in range(R):
         ma_reset(state)
-        for k in range(K):
-            y32 = yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits)
-            inc_raw_out[r, k], azi_raw_out[r, k] = survey_tick(
-                state, points, accel_counts[r, k, 0], accel_counts[r, k, 1], accel_counts[r, k, 2], samples[k], y32,
-                align_lo <= k < align_hi, mode, iterations)
+        for k0 in range(0, K, BLOCK):  # BLOCK ticks prepared in order, resolved at once (CORDIC lanes), then averaged
+            n = min(BLOCK, K - k0)
+            for j in range(n):
+                k = k0 + j
+                fx, fy, fz, psi = survey_prepare(state, points, accel_counts[r, k, 0], accel_counts[r, k, 1],
+                                                 accel_counts[r, k, 2], samples[k],
+                                                 yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits), align_lo <= k < align_hi)
+                if mode == MODE_CORDIC:
+                    work[W_FX, j], work[W_FY, j], work[W_FZ, j], work[W_YAW32, j] = fx, fy, fz, psi
+                else:
+                    work[W_INC, j], work[W_AZI, j] = resolve(fx, fy, fz, psi, mode, iterations)
+            if mode == MODE_CORDIC:
+                work[:W_YAW32 + 1, n:] = 0  # a last, partial block: zero vectors in the unused lanes
+                resolve_cordic_lanes(work, iterations)
+            for j in range(n):
+                inc_raw_out[r, k0 + j], azi_raw_out[r, k0 + j] = ma_push(state, points, work[W_INC, j], work[W_AZI, j])
 
 
 def mode_of(survey_math: str) -> int:

@@ -12,6 +12,8 @@ from the sensor counts on (:class:`FirmwareLanes`, the same njit code as the com
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from firmware_model import fixed_kernel as fk
@@ -121,13 +123,21 @@ def timer_us(interval_s) -> np.ndarray:
     return np.rint(np.asarray(interval_s, dtype=float) * 1e6).astype(np.int64)
 
 
+@functools.lru_cache(maxsize=8)
+def _firmware_params(config: FirmwareConfig) -> tuple[np.ndarray, np.ndarray]:
+    """``config.params(), config.filter_params()`` built once per build (a chain's nodes share one, and each
+    builds two reference filters); callers take copies."""
+    return config.params(), config.filter_params()
+
+
 class FirmwareLanes:
     """One node's fixed-point firmware in every realization (:func:`firmware_model.node_firmware.node_tick` per
     lane); the SimPy engine's view of what the compiled engine runs in its loop."""
 
     def __init__(self, config: FirmwareConfig, realizations: int):
         self.config = config
-        self.params, self.fparams = config.params(), config.filter_params()
+        params, fparams = _firmware_params(config)
+        self.params, self.fparams = params.copy(), fparams.copy()
         self.states = np.zeros((realizations, nf.STATE_SIZE), dtype=np.int64)
         for r in range(realizations):
             nf.init_lane(self.states[r])

@@ -7,6 +7,9 @@ Per realization (summary keys; mean and p95 over realizations like every metric)
 - ``mean_hop_latency_s``: mean time from handing a frame to the MAC to its arrival, over delivered frames;
 - ``radio_energy_j``: radio energy of all nodes, E = V (I_tx t_tx + I_rx t_rx) (:mod:`nodesim.chain.mac`);
 - ``fallback_frames``: frames sent over a fallback (skip) link;
+- ``crc_rejected_frames``: data tries the receiver decoded with a failed CRC-16 (or type byte) and dropped
+  (``mac.bit_errors``; 0 without): no ACK, so the ARQ tried again;
+- ``undetected_frame_errors``: tries whose bit errors the CRC did not see, accepted with a corrupted payload;
 - ``hop<h>_delivery_ratio``, ``hop<h>_retransmissions``, ``hop<h>_latency_s`` for the down link of hop h
   (h = 1: surface to the top node) and ``node<id>_radio_energy_j``.
 """
@@ -40,6 +43,8 @@ def link_metrics(run: ChainRun) -> dict[str, np.ndarray]:
         "mean_hop_latency_s": _ratio(sum(lk.stats.latency_sum_s for lk in links), delivered),
         "radio_energy_j": run.radio_energy_j.sum(axis=0),
         "fallback_frames": sum((lk.stats.frames for lk in run.skip_links), np.zeros_like(frames)).astype(float),
+        "crc_rejected_frames": sum(lk.stats.crc_rejected for lk in links).astype(float),
+        "undetected_frame_errors": sum(lk.stats.undetected for lk in links).astype(float),
     }
     for h, lk in enumerate(run.down_links):
         s = lk.stats

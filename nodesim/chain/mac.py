@@ -19,6 +19,9 @@ that of the node ticks; what differs between realizations is arrays):
   (T_a + turnaround, or the timeout); the receiver listens T_d per attempt that reaches it and sends T_a per
   ACK.  Idle listening is not counted.
 
+``mac.bit_errors``: a link whose frames have bytes (``Link.errors``) replaces the data draw by the preamble's
+loss and the frame's bit errors decoded by the receiver (:mod:`nodesim.chain.bit_errors`); the same PER.
+
 ``mac.enabled = false``: one attempt, no ACK, no queue, no duty cycle, no half duplex, duration = the hop's
 airtime (the simple links' fixed delay).  Uniform draws: see :mod:`nodesim.rng.streams` (data, ACK, burst state,
 burst loss per attempt of a realization that attempts).
@@ -30,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nodesim.chain.bit_errors import FrameErrors, apply_flips
 from nodesim.chain.links import LossDraws
 from nodesim.chain.radio import HopChannel
 from nodesim.scenario.radio_sections import BurstLoss, MacSection
@@ -71,6 +75,7 @@ class LinkStats:
 
     def __post_init__(self) -> None:
         self.frames, self.delivered, self.attempts, self.dropped = (np.zeros(self.R, np.int64) for _ in range(4))
+        self.crc_rejected, self.undetected = np.zeros(self.R, np.int64), np.zeros(self.R, np.int64)  # bit errors
         self.latency_sum_s = np.zeros(self.R)
 
     @property
@@ -83,6 +88,8 @@ class Transfer:
     delivered: np.ndarray  # bool (R,)
     arrival_s: np.ndarray  # (R,), NaN where not delivered
     end_s: np.ndarray  # (R,) when the sender's exchange ended (NaN where it did not send)
+    corrupt_try: np.ndarray | None = None  # (R,) the delivered try's number where its flips passed the CRC, else -1
+    corrupt_ber: np.ndarray | None = None  # (R,) its BER (bit_errors.apply_flips regenerates the flips)
 
 
 @dataclass
@@ -96,6 +103,7 @@ class Link:
     outages: tuple[tuple[float, float], ...] = ()
     stats: LinkStats = None
     bad: np.ndarray = None  # Gilbert-Elliott state per realization
+    errors: FrameErrors | None = None  # mac.bit_errors on a link whose frames have bytes
     _lanes: np.ndarray = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
@@ -114,6 +122,15 @@ class Link:
         flip = np.where(self.bad, u_state < b.p_bad_to_good, u_state < b.p_good_to_bad)
         self.bad = np.where(trying, self.bad ^ flip, self.bad)
         return trying & (u_loss < np.where(self.bad, b.loss_bad, b.loss_good))
+
+    def received(self, frame: np.ndarray, tr: Transfer) -> np.ndarray:
+        """The bytes the receiver got of ``frame`` (R, n) sent by :meth:`transfer` ``tr``: the sent ones, with the
+        flips of the accepted try where a corruption passed the CRC (a copy then)."""
+        if self.errors is None or not (tr.corrupt_try >= 0).any():
+            return frame
+        frame = frame.copy()
+        apply_flips(self.errors.keys, tr.corrupt_try, tr.corrupt_ber, frame)
+        return frame
 
     def transfer(self, t_ready, sending: np.ndarray, tx: RadioState | None, rx: RadioState | None,
                  rx_dead_at_s: float = np.inf) -> Transfer:
@@ -138,6 +155,7 @@ class Link:
         n_att = np.zeros(R, dtype=np.int64)
         heard = np.zeros(R, dtype=np.int64)  # attempts that reached a live receiver's radio
         wait_sum = np.zeros(R)
+        corrupt_try, corrupt_ber = np.full(R, -1, dtype=np.int64), np.zeros(R)
         alive_always = rx_dead_at_s == np.inf
         half_duplex = m.enabled and rx is not None
         for _ in range(attempts):
@@ -146,7 +164,7 @@ class Link:
                 break
             n_att += trying
             u = self.draws.next_uniforms(per_attempt, trying)  # data[, ack][, burst state, burst loss]
-            ok = trying & (u[:, 0] >= ch.per_data(t))
+            ok = trying & (u[:, 0] >= (ch.per_data(t) if self.errors is None else ch.per_preamble(t)))
             if not alive_always:
                 alive = t < rx_dead_at_s
                 ok &= alive
@@ -157,6 +175,16 @@ class Link:
                 ok &= ~self._burst_lost(trying, u[:, -2], u[:, -1])
             if half_duplex:
                 ok &= ~((t < rx.busy_end) & (t + ch.airtime_s > rx.busy_start))
+            if self.errors is not None:  # the receiver decodes the frame with the try's bit errors
+                ber = ch.ber(t)
+                tries = st.attempts + n_att - 1
+                flips, accepted = self.errors.tries(tries, ber, ok)
+                st.crc_rejected += ok & ~accepted
+                bad_first = ok & accepted & (flips > 0)
+                st.undetected += bad_first
+                bad_first &= np.isnan(arrival)
+                corrupt_try[bad_first], corrupt_ber[bad_first] = tries[bad_first], ber[bad_first]
+                ok &= accepted
             arrival[ok & np.isnan(arrival)] = (t + ch.airtime_s)[ok & np.isnan(arrival)]
             if not m.enabled:
                 done |= trying
@@ -186,7 +214,7 @@ class Link:
             slot = np.argmin(tx.queue_end, axis=1)
             rows = np.flatnonzero(sending)
             tx.queue_end[rows, slot[rows]] = t[rows]
-        return Transfer(delivered, arrival, end)
+        return Transfer(delivered, arrival, end, corrupt_try, corrupt_ber)
 
 
 def _energy(radio: RadioState | None, tx_s: np.ndarray, rx_s: np.ndarray) -> None:

@@ -164,7 +164,8 @@ def summarize(per_realization: dict[str, np.ndarray]) -> dict[str, float | None]
     and fractions)."""
     out: dict[str, float | None] = {}
     no_p95 = ("_fraction", "_packets", "surveys_received", "_ratio", "_retransmissions", "_latency_s",
-              "_radio_energy_j", "queue_drops", "fallback_frames", "_clipped_samples")
+              "_radio_energy_j", "queue_drops", "fallback_frames", "_clipped_samples",
+              "crc_rejected_frames", "undetected_frame_errors")
     for key, values in per_realization.items():
         finite = values[np.isfinite(values)]
         out[key] = float(np.mean(finite)) if finite.size else None

@@ -27,7 +27,9 @@ import simpy
 from firmware_model import node_survey as survey
 from firmware_model.node_survey import fixed_surveys
 from nodesim import threads
+from firmware_model import frames as fr
 from nodesim.chain import faults
+from nodesim.chain.bit_errors import FrameErrors
 from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.estimator import alignment_ticks, alignment_window_s
 from nodesim.chain.links import LazyStreams, LossDraws
@@ -35,7 +37,8 @@ from nodesim.chain.mac import Link, RadioState, radio_energy_j
 from nodesim.motion.chain_motion import build_motion
 from nodesim.motion.timelines import ChainMotion
 from nodesim.chain.node_process import ChainNode
-from nodesim.chain.packets import SurveyPacket
+from nodesim.chain.estimator import timer_us
+from nodesim.chain.packets import SurveyPacket, survey_frame, survey_sigmas_rad
 from nodesim.chain.radio import HopChannel, hop_channels
 from nodesim.chain.sensing import EncoderReader, node_signals
 from nodesim.errors import NodesimError
@@ -102,6 +105,7 @@ class NodeRun:
     ref_var_rad2: np.ndarray | None = None
     present_from_s: float = 0.0
     adc_clipped_samples: np.ndarray | None = None  # (R,) gyro + accelerometer axis readings clipped at full scale
+    estimate_frames: np.ndarray | None = None  # (R, K, 27) uint8 the estimate frames it sent (fixed firmware), 0 = none
 
 
 @dataclass(frozen=True)
@@ -110,6 +114,8 @@ class GroundSurvey:
 
     packet: SurveyPacket
     arrival_s: np.ndarray  # (R,) NaN where it did not arrive
+    # the fixed firmware's survey frame as the ground station received it (R, 25) uint8 (None: float filter)
+    frame: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -152,14 +158,24 @@ class Network:
         self.hops, skips = hop_channels(scenario, streams, R)
         mac = scenario.mac
 
-        def link(channel, gens, h):
-            return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h))
+        def link(channel, gens, h, errors=None):
+            return Link(channel, LossDraws(gens), mac, faults.burst(scenario, h), faults.outages(scenario, h),
+                        errors=errors)
 
-        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, h), R), h)
+        def errors(keys):  # mac.bit_errors on a link carrying estimate frames (hop 0 carries the encoder exchange)
+            return FrameErrors(fr.ESTIMATE, keys()) if mac.bit_errors else None
+
+        self.down_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, h), R), h,
+                                errors(partial(streams.bit_error_keys, R, h)) if h else None)
                            for h in range(c.nodes)]
-        self.up_links = [link(self.hops[h], LazyStreams(partial(streams.link_batch, R, c.nodes + h), R), h)
+        # up links carry survey frames: their airtime and PER from the survey frame's length
+        survey_bits = mac.frame_bits(fr.SURVEY_BYTES)
+        self.up_links = [link(self.hops[h].for_frame(survey_bits, scenario.radio.bit_rate_bps),
+                              LazyStreams(partial(streams.link_batch, R, c.nodes + h), R), h,
+                              FrameErrors(fr.SURVEY, streams.bit_error_keys(R, c.nodes + h)) if mac.bit_errors else None)
                          for h in range(c.nodes)]
         self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
+        self._errors = errors
         self.surface = RadioState(R, mac.queue_length)
         self.seq = 0
         schedule = schedule_of(scenario)
@@ -182,13 +198,15 @@ class Network:
             self.nodes.append(node)
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
+        self._survey_hops: list[list] = []
 
     def skip_link(self, node_id: int) -> Link:
         """The fallback link from ``node_id`` to the node after its neighbour (built on first use; its draws
         come from its own streams, so when it is built does not matter)."""
         if node_id not in self._skip_links:
             gens = LazyStreams(partial(self._streams.skip_link_batch, self.R, node_id), self.R)
-            self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1)
+            self._skip_links[node_id] = self._make_link(self._skips[node_id], gens, -1, self._errors(
+                partial(self._streams.skip_bit_error_keys, self.R, node_id)))
         return self._skip_links[node_id]
 
     def next_seq(self) -> int:
@@ -205,14 +223,17 @@ class Network:
         top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
         at = np.broadcast_to(np.asarray(ready_s, dtype=float), (self.R,)).copy()  # after the node's own exchange
         valid = packet.valid.copy()
+        hops = []  # (link, transfer) per hop: the frame's bytes are made after the run (_survey_frames)
         for node_id in range(packet.node_id, top - 1, -1):
             above = self.nodes[node_id - 2] if node_id > top else None
-            tr = self.up_links[node_id - 1].transfer(
-                at, valid, self.nodes[node_id - 1].radio, above.radio if above else self.surface,
-                above.dead_at_s if above else np.inf)
+            link = self.up_links[node_id - 1]
+            tr = link.transfer(at, valid, self.nodes[node_id - 1].radio, above.radio if above else self.surface,
+                               above.dead_at_s if above else np.inf)
+            hops.append((link, tr))
             valid = tr.delivered
             at = np.where(valid, tr.arrival_s, np.nan)
         self.ground.append(GroundSurvey(packet.lost_where(~valid), at))
+        self._survey_hops.append(hops)
 
     def run(self, progress: Callable[[float], None] | None = None, steps: int = 200) -> ChainRun:
         """Run the world to the end.  With ``progress``, the run stops at ``steps`` evenly spaced simulated
@@ -230,6 +251,29 @@ class Network:
             progress(1.0)
         return self.result()
 
+    def _survey_frames(self, runs) -> list[GroundSurvey]:
+        """The fixed firmware's surveys as 25-byte survey frames (:func:`nodesim.chain.packets.survey_frame`) from
+        the surveying node's I and A words at the survey tick, relayed hop by hop (each hop's undetected bit
+        errors, :meth:`nodesim.chain.mac.Link.received`, stay in the bytes), as the ground station got them.
+        Made after the run: the moving-averaged survey words are resolved from the node's records."""
+        out = []
+        for g, hops in zip(self.ground, self._survey_hops):
+            p = g.packet
+            node, run = self.nodes[p.node_id - 1], runs[p.node_id - 1]
+            if getattr(node, "survey_raw", None) is None:
+                out.append(g)
+                continue
+            first, inc_raw, azi_raw = node.survey_raw
+            k = p.tick - first
+            sig_i, sig_a = survey_sigmas_rad(run.accel_sigma_m_s2, self.scenario.filter.moving_average_points,
+                                             run.true_inclination_rad[p.tick], run.yaw_var_rad2[:, p.tick])
+            frame = survey_frame(p.station, p.node_id, int(timer_us(p.t_s)), inc_raw[:, k], azi_raw[:, k], sig_i,
+                                 sig_a)
+            for link, tr in hops:
+                frame = link.received(frame, tr)
+            out.append(GroundSurvey(p, g.arrival_s, frame))
+        return out
+
     def result(self) -> ChainRun:
         """The run's records (after :meth:`run`, or after the compiled engine filled them in)."""
         points = self.scenario.filter.moving_average_points
@@ -239,7 +283,7 @@ class Network:
         return ChainRun(
             nodes=runs,
             motion=self.motion,
-            surveys=tuple(self.ground),
+            surveys=tuple(self._survey_frames(runs)),
             rotation_end_s=self.motion.rotation_end_s,
             lost_packets=lost,
             simpy_events=self.events,
@@ -279,6 +323,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
 
         threads.map_chunks(run_fixed, R)
         inc[:, first:], azi[:, first:] = survey.inclination_rad(inc_raw), survey.azimuth_rad(azi_raw)
+        node.survey_raw = (first, inc_raw, azi_raw)  # the survey frames' words (Network._survey_frames)
     elif first < K:
         def run(r0: int, r1: int) -> None:
             averaged_surveys(node.sig.specific_force[r0:r1, first:], node.yaw[r0:r1, first:], lo, hi, points,
@@ -313,7 +358,9 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         ref_yaw_rad=node.ref_yaw,
         ref_var_rad2=node.ref_var,
         present_from_s=node.timeline.present_from_s,
-        adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
+        adc_clipped_samples=(None if node.sig.gyro_clipped_samples is None
+                             else node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples),
+        estimate_frames=node.frames,
     )
 
 

@@ -37,6 +37,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from firmware_model import fixed_kernel as fk
+from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from nodesim.chain.estimator import (FirmwareLanes, firmware_config, forwarded_reference, new_filter, rate_estimate,
                                      timer_us, yaw_rad_of_raw)
@@ -96,6 +97,9 @@ class ChainNode:
         # the fixed firmware's binary angle and P_yy raws per tick (the survey and the frames use them)
         self.yaw_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         self.var_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
+        # the estimate frames it sent, (R, K, 27) uint8, all zero where it sent none (type byte 0)
+        self.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), dtype=np.uint8) if self.fixed else None
+        self.first_tick = int(np.searchsorted(signals.t_s, timeline.present_from_s))  # power-up: the frames' seq 0
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
@@ -298,10 +302,11 @@ class ChainNode:
         """Send the estimate to the node below (or, where this node fell back, to the one after it)."""
         net = self.net
         seq = net.next_seq()
-        if self.fixed:  # issue 19b: the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias)
-            rate_raw = self.fw.outputs[:, nf.OUT_RATE]
-            raws = dict(frame=estimate_frame(self.node_id, seq, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
+        if self.fixed:  # the estimate frame's bytes (binary angle, P_yy, bias-corrected rate, bias); seq = the
+            rate_raw = self.fw.outputs[:, nf.OUT_RATE]  # ticks since power-up
+            raws = dict(frame=estimate_frame(self.node_id, k - self.first_tick, timer_us(t), self.fw.yaw_raw, self.fw.var_raw,
                                              rate_raw, self.fw.states[:, fk.I_BIAS]))
+            self.frames[valid, k] = raws["frame"][valid]
             rate = self.fw.rate_rad_s(rate_raw)
         else:
             raws, rate = {}, rate_estimate(self.kf, self.sig.gyro_rad_s[:, k])
@@ -317,13 +322,20 @@ class ChainNode:
         )
         t_ready = self.ready_s + net.processing_s
         below = net.nodes[self.index + 1]
-        tr = net.down_links[self.index + 1].transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
+        link = net.down_links[self.index + 1]
+        tr = link.transfer(t_ready, valid, self.radio, below.radio, below.dead_at_s)
         skip = self.fallback.record(valid & ~np.isnan(tr.end_s), tr.delivered, t)
         if tr.delivered.any():
-            below.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
+            below.deliver(_received(pkt, link, tr))
         if skip.any():  # the neighbour did not answer: on to the node after it, once the exchange is over
             skip_to = net.nodes[self.index + 2]
-            tr = net.skip_link(self.node_id).transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio,
-                                                      skip_to.radio, skip_to.dead_at_s)
+            link = net.skip_link(self.node_id)
+            tr = link.transfer(np.where(skip, tr.end_s, t_ready), skip, self.radio, skip_to.radio, skip_to.dead_at_s)
             if tr.delivered.any():
-                skip_to.deliver(replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s))
+                skip_to.deliver(_received(pkt, link, tr))
+
+
+def _received(pkt: EstimatePacket, link, tr) -> EstimatePacket:
+    """The packet as the receiver got it over ``link`` (its bytes with the bit errors the CRC let through)."""
+    frame = pkt.frame if pkt.frame is None else link.received(pkt.frame, tr)
+    return replace(pkt, valid=tr.delivered, arrival_s=tr.arrival_s, frame=frame)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from firmware_model import frames as fr
+from nodesim.units import G0_M_S2
 
 
 @dataclass(frozen=True)
@@ -35,20 +36,18 @@ class EstimatePacket:
         return replace(self, valid=self.valid & ~lost)
 
 
-_EST = fr.FIELDS[fr.ESTIMATE]
-_YAW, _PYY = fr.field_index(fr.ESTIMATE, "yaw"), fr.field_index(fr.ESTIMATE, "P_yy")
-
-
 def estimate_frame(node: int, seq: int, t_read_us, yaw_raw, var_raw, rate_raw, bias_raw) -> np.ndarray:
-    """The estimate frame of every realization, (R, 27) uint8 (:mod:`firmware_model.frames`, docs/firmware.md
-    "Frames"): node, seq (mod 2^16), t_read_us (mod 2^32), yaw (binary angle), P_yy, rate, bias raws in the
-    build's formats (Q0.32, Q8.24, Q16.16, Q16.16 by default; a shorter word fits the same 32-bit fields)."""
+    """The estimate frame of every realization, (R, 27) uint8, by :func:`firmware_model.frames.encode_estimates`
+    (docs/firmware.md "Frames"): node, seq (the sender's tick counter, mod 2^16), t_read_us (mod 2^32), yaw (binary
+    angle), P_yy, rate, bias raws in the build's formats (Q0.32, Q8.24, Q16.16, Q16.16 by default; a shorter word
+    fits the same 32-bit fields)."""
     R = np.shape(yaw_raw)[0]
-    v = np.empty((R, len(_EST)), dtype=np.int64)
-    v[:, 0], v[:, 1], v[:, 2] = node, seq, t_read_us
-    v[:, 3], v[:, 4], v[:, 5], v[:, 6] = yaw_raw, var_raw, rate_raw, bias_raw
-    frames, status = fr.encode_lanes(v, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE, fr.ESTIMATE_BYTES)
-    if (status < 0).any():
+    frames = np.zeros((R, fr.ESTIMATE_BYTES), dtype=np.uint8)
+    values = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), dtype=np.int64)
+    words = [np.ascontiguousarray(np.broadcast_to(w, (R,)), dtype=np.int64)
+             for w in (yaw_raw, var_raw, rate_raw, bias_raw)]
+    if fr.encode_estimates(node, seq, int(t_read_us), *words, frames, values) < 0:
+        v = np.column_stack([np.full(R, node), np.full(R, seq), np.full(R, int(t_read_us)), *words])
         fr.encode(fr.ESTIMATE, v)  # raises the FirmwareError naming the lane and field
     return frames
 
@@ -67,6 +66,37 @@ class SurveyPacket:
 
     def lost_where(self, lost: np.ndarray) -> "SurveyPacket":
         return replace(self, valid=self.valid & ~lost)
+
+
+def survey_sigmas_rad(accel_sigma_m_s2: float, points: int, true_inclination_rad: float, yaw_var_rad2):
+    """(sigma_I, sigma_A) of a survey: sigma_I^2 = sigma_f^2 / (M g^2), sigma_A^2 = P_psipsi + sigma_f^2 /
+    (M (g sin I)^2), sigma_f the per-tick accelerometer noise, M the moving-average length."""
+    var_f = accel_sigma_m_s2**2 / points
+    horizontal = G0_M_S2 * np.sin(true_inclination_rad)
+    return np.sqrt(var_f) / G0_M_S2, np.sqrt(yaw_var_rad2 + var_f / max(horizontal, 1e-12) ** 2)
+
+
+def survey_frame(station: int, node: int, t_us: int, inc_raw, azi_raw, sigma_i_rad, sigma_a_rad) -> np.ndarray:
+    """The survey frames of every realization, (R, 25) uint8 (:mod:`firmware_model.frames`): station, node,
+    cluster 0 (one sensor cluster per tube here), t_us (mod 2^32), the I and A binary angles (Q0.32, mod one turn)
+    and the sigmas as unsigned 2^-20-turn words (rounded; above 22.5 deg saturated, ``SATURATE``)."""
+    R = np.shape(inc_raw)[0]
+    lsb = 2.0 * np.pi / 2**20
+    v = np.column_stack([np.full(R, station), np.full(R, node), np.zeros(R, np.int64), np.full(R, t_us),
+                         np.asarray(inc_raw, np.int64), np.asarray(azi_raw, np.int64),
+                         np.broadcast_to(np.rint(np.asarray(sigma_i_rad) / lsb), (R,)).astype(np.int64),
+                         np.rint(np.asarray(sigma_a_rad) / lsb).astype(np.int64)])
+    return fr.encode(fr.SURVEY, v)[0]
+
+
+def decode_survey(frames: np.ndarray) -> dict[str, np.ndarray]:
+    """The ground station's reading of survey frames (R, 25): ``valid`` (CRC and type byte), the I and A words
+    back in [0, 2^32) (one turn) and the sigmas in radians."""
+    values, ok = fr.decode(fr.SURVEY, frames)
+    col = {name: values[:, i] for i, (name, *_) in enumerate(fr.FIELDS[fr.SURVEY])}
+    lsb = 2.0 * np.pi / 2**20
+    return {"valid": ok, "inc_raw": col["I"] & 0xFFFFFFFF, "azi_raw": col["A"] & 0xFFFFFFFF,
+            "sigma_i_rad": col["sigma_I"] * lsb, "sigma_a_rad": col["sigma_A"] * lsb}
 
 
 @dataclass(frozen=True)
@@ -106,7 +136,7 @@ def select_reference(
     for pkt in sorted(inbox, key=lambda p: p.seq, reverse=True):  # newest first
         valid = pkt.valid
         if raws:  # the receiver decodes the bytes: a frame failing its CRC is dropped and counted
-            words, ok = fr.decode_lanes(pkt.frame, fr.LAYOUTS[fr.ESTIMATE], fr.ESTIMATE)
+            words, ok = fr.decode_lanes(pkt.frame, fr.ESTIMATE_LAYOUT, fr.ESTIMATE)
             rejected += valid & ~ok
             valid = valid & ok
         newer = valid & (pkt.seq > last_seq)
@@ -120,7 +150,7 @@ def select_reference(
         t_read = np.where(take, pkt.t_read_s, t_read)
         seq = np.where(take, pkt.seq, seq)
         if raws:
-            yaw_raw = np.where(take, words[:, _YAW], yaw_raw)
-            var_raw = np.where(take, words[:, _PYY], var_raw)
+            yaw_raw = np.where(take, words[:, fr.EST_YAW], yaw_raw)
+            var_raw = np.where(take, words[:, fr.EST_PYY], var_raw)
         have |= take
     return Selection(have, yaw, var, t_read, seq, stale, dup, yaw_raw, var_raw, rejected)

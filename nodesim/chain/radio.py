@@ -20,7 +20,7 @@ length (mixed media: the summed losses), with its own shadowing draw.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -103,22 +103,39 @@ class HopChannel:
     mean_margin_db: float
     airtime_s: float
     ack_airtime_s: float
+    ber_table: np.ndarray | None = None  # (G, R) bit error rate (None: the simple link has none)
+    per_preamble_table: np.ndarray | None = None  # (G, R) 1 - (1 - BER)^preamble_bits
+
+    def _at(self, table: np.ndarray, t_s) -> np.ndarray:
+        if table.shape[0] == 1:
+            return table[0]
+        g = self._row(t_s)
+        return table[g, np.arange(g.shape[0])]
+
+    def ber(self, t_s: np.ndarray) -> np.ndarray:
+        return self._at(self.ber_table, t_s)
+
+    def per_preamble(self, t_s: np.ndarray) -> np.ndarray:
+        return self._at(self.per_preamble_table, t_s)
 
     def _row(self, t_s) -> np.ndarray:
         g = np.clip((np.asarray(t_s) / self.step_s).astype(np.int64), 0, self.per_data_table.shape[0] - 1)
         return g
 
+    def for_frame(self, frame_bits: int, bit_rate_bps: float) -> "HopChannel":
+        """The same hop for data frames of ``frame_bits`` bits (preamble included): PER 1 - (1 - BER)^bits and
+        airtime bits / bit rate (the survey frames of the up links); the simple link is the same whatever the
+        length (its fixed delay and loss)."""
+        if self.ber_table is None:
+            return self
+        return replace(self, per_data_table=np.asarray(per.per_from_ber(self.ber_table, frame_bits), dtype=float),
+                       airtime_s=frame_bits / bit_rate_bps)
+
     def per_data(self, t_s: np.ndarray) -> np.ndarray:
-        if self.per_data_table.shape[0] == 1:
-            return self.per_data_table[0]
-        g = self._row(t_s)
-        return self.per_data_table[g, np.arange(g.shape[0])]
+        return self._at(self.per_data_table, t_s)
 
     def per_ack(self, t_s: np.ndarray) -> np.ndarray:
-        if self.per_ack_table.shape[0] == 1:
-            return self.per_ack_table[0]
-        g = self._row(t_s)
-        return self.per_ack_table[g, np.arange(g.shape[0])]
+        return self._at(self.per_ack_table, t_s)
 
 
 def simple_channel(scenario: Scenario, name: str, R: int) -> HopChannel:
@@ -141,8 +158,12 @@ def _channels(scenario: Scenario, specs: list[tuple[str, str, np.ndarray, np.nda
         path_loss = np.stack([specs[i][2] for i in idx])  # (hops, G)
         loss = path_loss[:, :, None] + np.stack([specs[i][3] for i in idx])[:, None, :]
         rx = b.received_power_dbm(loss)  # (hops, G, R)
-        per_data = np.asarray(per.packet_error_rate(rx, m.data_frame_bits, radio), dtype=float)
-        per_ack = np.asarray(per.packet_error_rate(rx, m.ack_bits, radio), dtype=float)
+        quality = per.link_quality(rx, m.data_frame_bits, radio)
+        ber = np.asarray(quality["ber"], dtype=float)  # the PERs below are 1 - (1 - ber)^bits of this BER
+        per_data = np.asarray(quality["packet_error_rate"], dtype=float)
+        per_ack = np.asarray(per.per_from_ber(ber, m.ack_bits), dtype=float)
+        per_pre = (np.asarray(per.per_from_ber(ber, m.preamble_bits), dtype=float) if m.preamble_bits
+                   else np.zeros_like(ber))
         margin = np.asarray(b.margin_db(loss), dtype=float)
         for j, i in enumerate(idx):
             out[i] = HopChannel(
@@ -150,6 +171,7 @@ def _channels(scenario: Scenario, specs: list[tuple[str, str, np.ndarray, np.nda
                 per_data_table=per_data[j], per_ack_table=per_ack[j], margin_db=margin[j],
                 mean_path_loss_db=float(path_loss[j, 0]), mean_margin_db=float(b.margin_db(path_loss[j, 0])),
                 airtime_s=m.data_frame_bits / r.bit_rate_bps, ack_airtime_s=m.ack_bits / r.bit_rate_bps,
+                ber_table=ber[j], per_preamble_table=per_pre[j],
             )
     return out
 

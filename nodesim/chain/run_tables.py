@@ -4,7 +4,9 @@
 - ``surveys.csv``: the survey table the ground station received, one row per realization and station
   (values are the surveying node's moving-averaged inclination/azimuth at the survey tick, thesis eqs
   1.1-1.3; sigma_A^2 = P_psipsi + sigma_f^2 / (M (g sin I)^2), sigma_I^2 = sigma_f^2 / (M g^2) with
-  sigma_f the per-tick accelerometer noise and M the moving-average length);
+  sigma_f the per-tick accelerometer noise and M the moving-average length,
+  :func:`nodesim.chain.packets.survey_sigmas_rad`; the fixed firmware's as decoded from the survey frames the
+  ground station received, sigmas in their 2^-20-turn words);
 - ``ground_survey.csv``: the surveys of realization 0 that reached the ground station, in the CSV form of
   ``nodesim uncertainty`` (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
 - ``hops.csv``: one row per hop: medium, mean path loss and margin, frames, delivery ratio, retransmissions,
@@ -18,8 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from nodesim.chain.linkmetrics import hop_table
+from firmware_model import node_survey as survey
 from nodesim.chain.network import ChainRun
-from nodesim.units import G0_M_S2, rad_to_deg, wrap_pi
+from nodesim.chain.packets import decode_survey, survey_sigmas_rad
+from nodesim.units import rad_to_deg, wrap_pi
 
 
 def timeseries_columns(run: ChainRun, r: int = 0) -> dict[str, np.ndarray]:
@@ -56,18 +60,22 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
     for g in run.surveys:
         p = g.packet
         n = by_id[p.node_id]
-        var_f = n.accel_sigma_m_s2**2 / run.moving_average_points
         true_inc, true_azi = n.true_inclination_rad[p.tick], n.true_azimuth_rad[p.tick]
-        horizontal = G0_M_S2 * np.sin(true_inc)
-        sigma_i = np.sqrt(var_f) / G0_M_S2
+        if g.frame is not None:  # the fixed firmware: what the ground station decoded from the survey frames
+            got = decode_survey(g.frame)
+            inc, azi = survey.inclination_rad(got["inc_raw"]), survey.azimuth_rad(got["azi_raw"])
+            sigma_i, sigma_a = got["sigma_i_rad"], got["sigma_a_rad"]
+        else:
+            inc, azi = n.inclination_rad[:, p.tick], n.azimuth_rad[:, p.tick]
+            sigma_i, sigma_a = survey_sigmas_rad(n.accel_sigma_m_s2, run.moving_average_points, true_inc,
+                                                 n.yaw_var_rad2[:, p.tick])
+        sigma_i = np.broadcast_to(sigma_i, inc.shape)
         for r in range(p.valid.shape[0]):
-            sigma_a = np.sqrt(n.yaw_var_rad2[r, p.tick] + var_f / max(horizontal, 1e-12) ** 2)
             for key, value in (
                 ("realization", r), ("station", p.station), ("md_m", p.md_m), ("node", p.node_id),
                 ("t_survey_s", p.t_s), ("arrival_s", g.arrival_s[r]), ("received", int(p.valid[r])),
-                ("inclination_deg", rad_to_deg(n.inclination_rad[r, p.tick])),
-                ("azimuth_deg", rad_to_deg(n.azimuth_rad[r, p.tick])),
-                ("sigma_inclination_deg", rad_to_deg(sigma_i)), ("sigma_azimuth_deg", rad_to_deg(sigma_a)),
+                ("inclination_deg", rad_to_deg(inc[r])), ("azimuth_deg", rad_to_deg(azi[r])),
+                ("sigma_inclination_deg", rad_to_deg(sigma_i[r])), ("sigma_azimuth_deg", rad_to_deg(sigma_a[r])),
                 ("true_inclination_deg", rad_to_deg(true_inc)),
                 ("true_azimuth_deg", rad_to_deg(true_azi)),
             ):

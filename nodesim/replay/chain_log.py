@@ -11,8 +11,9 @@ One row per node and firmware tick from the node's power-up (``tick`` = 1), SI u
     the forwarded estimate advanced by eq 3.29 for the others) - the recorded schedule;
   - ``fw_yaw``, ``fw_yaw_var``, ``fw_bias``, ``fw_inclination``, ``fw_azimuth``: the node's outputs (the
     static window has yaw only, like the firmware);
-  - ``true_yaw``, ``true_inclination``, ``true_azimuth``: the truth.
-Replaying the log with the scenario as firmware configuration reproduces the outputs bit for bit on lab
+  - ``true_yaw``, ``true_inclination``, ``true_azimuth``: the truth;
+  - ``frame``: the estimate frame the node sent at the tick (fixed firmware), 54 hex digits.
+Replaying the log with the scenario as firmware configuration reproduces the outputs and the frames bit for bit on lab
 and drilling runs (``tests/nodesim/replay/test_round_trip.py``).
 """
 
@@ -73,6 +74,9 @@ def chain_recordings(run, scenario: Scenario, realization: int = 0) -> list[Node
                 cols[f"gyro_sum_{axis}"] = n.gyro_counts[r][present][:, i]
                 cols[f"accel_sum_{axis}"] = n.accel_counts[r][present][:, i]
             cols["samples"] = n.samples[present]
+        if n.estimate_frames is not None:  # the estimate frames the node sent (fixed firmware), hex
+            sent = n.estimate_frames[r][present]
+            cols["frame"] = np.array([f.tobytes().hex() if f[0] else None for f in sent], dtype=object)
         out.append(NodeRecording(n.node_id, cols))
     return out
 

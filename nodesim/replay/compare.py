@@ -4,7 +4,8 @@ For each recorded output (``fw_yaw``, ``fw_yaw_var``, ``fw_bias``, ``fw_inclinat
 recorded value at a tick is the last one among the rows in (t_{k-1}, t_k] (the same rule as the replay's
 per-tick inputs).  Differences: model - recorded, angles wrapped into [-pi, pi).  The first divergence is the
 first tick where |difference| > tolerance (tolerance 0: the first tick that is not bit-identical), given
-with its time and the log line/row it came from.
+with its time and the log line/row it came from.  The estimate frames (``frame``, fixed firmware) are compared byte
+for byte: the difference is the number of bytes that differ.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodesim.replay.reader import NodeLog
-from nodesim.replay.replayer import NodeReplay
+from nodesim.replay.replayer import NodeReplay, recorded_frames
 from nodesim.units import rad_to_deg, wrap_pi
 
 QUANTITIES = {  # log column -> (NodeReplay attribute, is an angle, unit of the report, factor from SI)
@@ -82,7 +83,25 @@ def compare_node(node: NodeLog, rep: NodeReplay, tolerances: dict[str, float], r
             first = {"tick": k, "t_s": float(rep.t_s[k]), row_kind: int(src[k]), "model": None,
                      "recorded": float(rec[k] * factor), "diff": None, "tolerance": tol}
         out[name] = QuantityDiff(name, unit, both, diff, first)
+    if node.has("frame") and rep.frames is not None:
+        out["frame"] = _compare_frames(node, rep, row_kind)
     return out
+
+
+def _compare_frames(node: NodeLog, rep: NodeReplay, row_kind: str) -> QuantityDiff:
+    """The estimate frames: per tick where the log records one, the number of bytes the replay's frame differs
+    in (0: bit-identical); the first divergence gives both frames in hex."""
+    rec, src = recorded_frames(node, rep.t_s)
+    ticks = np.flatnonzero(src >= 0)
+    diff = (rec[ticks] != rep.frames[ticks]).sum(axis=1).astype(float)
+    bad = np.flatnonzero(diff > 0)
+    first = None
+    if bad.size:
+        k = int(ticks[bad[0]])
+        first = {"tick": k, "t_s": float(rep.t_s[k]), row_kind: int(node.rows[src[k]]),
+                 "model": rep.frames[k].tobytes().hex(), "recorded": rec[k].tobytes().hex(),
+                 "diff": float(diff[bad[0]]), "tolerance": 0.0}
+    return QuantityDiff("frame", "bytes", ticks, diff, first)
 
 
 __all__ = ["QUANTITIES", "QuantityDiff", "compare_node", "recorded_at_ticks"]

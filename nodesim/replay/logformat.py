@@ -35,6 +35,10 @@ optional columns
                                  ``accel_lsb_per_g`` in the header give their scale); the fixed-point replay
                                  feeds them to the firmware as they are.  Without them it sums the samples'
                                  counts itself (raw counts, or SI values requantised to the configured ADC)
+    ``frame``                    on ``tick`` rows where the node sent an estimate frame: its 27 bytes as 54
+                                 hex digits (``firmware_model.frames``, docs/firmware.md "Frames"), empty
+                                 elsewhere; the fixed-point replay encodes its own frame at those ticks and
+                                 compares the bytes
     ``x_*``                      free user columns, ignored
 
 header (CSV: ``# key = value`` lines before the column names, the first being ``# nodesim-log 1``;
@@ -71,7 +75,8 @@ OPTIONAL = (
     *FIRMWARE_OUTPUTS, *TRUTH,
 )
 TICK_SUMS = ("gyro_sum_x", "gyro_sum_y", "gyro_sum_z", "accel_sum_x", "accel_sum_y", "accel_sum_z", "samples")
-OPTIONAL = OPTIONAL + TICK_SUMS
+TEXT = ("frame",)  # text columns (every other column is numeric)
+OPTIONAL = OPTIONAL + TICK_SUMS + TEXT
 FLAGS = ("tick", "static", "hold", "ref_update")
 USER_PREFIX = "x_"
 

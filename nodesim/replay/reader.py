@@ -8,7 +8,8 @@ Checks, in this order, each naming the file, the line (CSV) or row (Parquet) of 
   3. raw counts are integers inside the ``adc_bits`` range (int16 by default);
   4. per node, time strictly increases (no step back, no duplicated time);
   5. per node, no gap between samples longer than ``max_gap_s``;
-  6. ``tick``/``ref_update`` are 0 or 1 and every ``ref_update`` row has a finite ``ref_yaw`` and ``ref_var``.
+  6. ``tick``/``ref_update`` are 0 or 1 and every ``ref_update`` row has a finite ``ref_yaw`` and ``ref_var``;
+     a ``frame`` cell is empty or 54 hex digits of an estimate frame whose CRC-16 holds.
 Without ``repair`` the first problem (lowest line among all checks) raises :class:`NodesimError` and nothing
 is returned.  With ``repair`` the fixes below are applied and counted in :attr:`ReplayLog.repairs`; what
 cannot be repaired (1, 6) still raises:
@@ -33,6 +34,7 @@ import pyarrow as pa
 import pyarrow.csv as pcsv
 import pyarrow.parquet as pq
 
+from firmware_model import frames as fr
 from nodesim.errors import NodesimError
 from nodesim.replay import logformat as lf
 
@@ -106,7 +108,7 @@ def _read_csv(path: Path) -> tuple[lf.LogMeta, pa.Table, int]:
     if not names:
         raise NodesimError(f"{path}, line {len(header) + 1}: no column names; required {list(lf.REQUIRED)}")
     _check_columns(names, meta, path)
-    types = {n: pa.float64() for n in names}
+    types = {n: pa.string() if n in lf.TEXT else pa.float64() for n in names}
     skip = len(header)
     try:
         table = pcsv.read_csv(path, read_options=pcsv.ReadOptions(skip_rows=skip),
@@ -152,10 +154,11 @@ def _read_parquet(path: Path) -> tuple[lf.LogMeta, pa.Table, int]:
     _check_columns(table.column_names, meta, path)
     cols = {}
     for name in table.column_names:
+        want, what = (pa.string(), "text") if name in lf.TEXT else (pa.float64(), "numeric")
         try:
-            cols[name] = table.column(name).cast(pa.float64())
+            cols[name] = table.column(name).cast(want)
         except pa.ArrowException:
-            raise NodesimError(f"{path}, column {name}: type {table.column(name).type} is not numeric") from None
+            raise NodesimError(f"{path}, column {name}: type {table.column(name).type} is not {what}") from None
     return meta, pa.table(cols), 1
 
 
@@ -198,6 +201,31 @@ class _Problems:
             raise NodesimError(f"{self.where}, {self.row_kind} {int(self.rows[i])}: {msg}")
 
 
+_HEX = re.compile(r"[0-9a-fA-F]*")
+
+
+def _frames(cells: list, path: Path, row_kind: str, rows: np.ndarray) -> np.ndarray:
+    """The ``frame`` column as (N, 27) uint8 estimate frames, zero rows where empty; a cell that is not 54 hex
+    digits of a frame whose CRC-16 and type byte hold is an error naming its line/row (not repairable)."""
+    n = fr.ESTIMATE_BYTES
+    out = np.zeros((len(cells), n), dtype=np.uint8)
+    for i, cell in enumerate(cells):
+        if cell is None or cell == "":
+            continue
+        if len(cell) != 2 * n or not _HEX.fullmatch(cell):
+            raise NodesimError(f"{path}, {row_kind} {rows[i]}: frame = {cell[:60]!r}; allowed {2 * n} hex digits "
+                               f"(the {n}-byte estimate frame) or empty")
+        out[i] = np.frombuffer(bytes.fromhex(cell), dtype=np.uint8)
+    sent = out[:, 0] != 0
+    if sent.any():
+        ok = fr.decode(fr.ESTIMATE, out[sent])[1]
+        if not ok.all():
+            i = int(np.flatnonzero(sent)[np.argmin(ok)])
+            raise NodesimError(f"{path}, {row_kind} {rows[i]}: frame = {cells[i]!r} fails its CRC-16 or is not an "
+                               f"estimate frame (type byte {fr.ESTIMATE}); allowed the bytes the node sent")
+    return out
+
+
 def read_log(path, repair: bool = False, max_gap_s: float = DEFAULT_MAX_GAP_S) -> ReplayLog:
     """Read and check a CSV or Parquet log (see the module docstring for the checks and the repairs)."""
     path = Path(path)
@@ -210,12 +238,14 @@ def read_log(path, repair: bool = False, max_gap_s: float = DEFAULT_MAX_GAP_S) -
     else:
         meta, table, first_row, row_kind = *_read_csv(path), "line"
     data = {n: table.column(n).to_numpy(zero_copy_only=False).astype(float) for n in table.column_names
-            if not n.startswith(lf.USER_PREFIX)}
+            if not n.startswith(lf.USER_PREFIX) and n not in lf.TEXT}
     n_rows = table.num_rows
     if n_rows == 0:
         raise NodesimError(f"{path}: the log has no samples")
     rows = np.arange(n_rows, dtype=np.int64) + first_row
     probs = _Problems(str(path), row_kind, rows, repair)
+    if "frame" in table.column_names:
+        data["frame"] = _frames(table.column("frame").to_pylist(), path, row_kind, rows)
     keep = np.ones(n_rows, dtype=bool)
 
     required = ["t_s", *lf.GYRO, *lf.ACCEL] + (["node"] if "node" in data else [])

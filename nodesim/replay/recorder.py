@@ -50,9 +50,10 @@ def log_table(nodes: list[NodeRecording] | tuple[NodeRecording, ...]) -> dict[st
                 out[c].append(np.full(size, n.node_id, dtype=np.int64))
             elif c in n.columns:
                 v = np.asarray(n.columns[c])
-                out[c].append(v.astype(np.int64) if c in lf.FLAGS else v.astype(float))
+                out[c].append(v.astype(object) if c in lf.TEXT else v.astype(np.int64) if c in lf.FLAGS
+                              else v.astype(float))
             else:
-                out[c].append(np.full(size, np.nan))
+                out[c].append(np.full(size, None, dtype=object) if c in lf.TEXT else np.full(size, np.nan))
     return {c: np.concatenate(v) for c, v in out.items()}
 
 

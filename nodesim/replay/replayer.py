@@ -12,7 +12,10 @@ Per node (each node of a multi-node log is replayed with the references it recor
      where the schedule gives a reference, except the ticks marked ``hold`` (state kept, nothing done);
   5. the survey: inclination and azimuth from the tick-averaged specific force and the yaw at the middle of the
      tick's window (thesis eqs 1.1-1.3), the alignment offset of the configuration's ``firmware.alignment``
-     window (at t_log + its times), then the firmware's N-point moving average.
+     window (at t_log + its times), then the firmware's N-point moving average;
+  6. frames (fixed firmware): at every tick where the log records an estimate frame sent (column ``frame``), the
+     replay encodes its own from its firmware words (:func:`nodesim.chain.packets.estimate_frame`, the chain's
+     encoder: seq = the tick since power-up, t_read_us = the tick time in us) for the comparison with the log.
 This is the convention of the chain simulation's node process (``nodesim.chain.node_process``), so a log it
 recorded replays bit for bit.  Schedules:
   - ``recorded``: the updates the log records (``ref_update``, with ``ref_yaw`` and ``ref_var``);
@@ -39,8 +42,10 @@ from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.yaw_filter import YawFilterConfig
 from nodesim.sensors.allan import AllanNoise, overlapping_adev, read_noise
 from nodesim.chain.compiled.surveys import averaged_surveys
+from firmware_model import frames as fr
 from nodesim.chain.estimator import (FirmwareLanes, alignment_ticks, alignment_window_s, filter_config,
-                                    firmware_config, fixed_formats)
+                                    firmware_config, fixed_formats, timer_us)
+from nodesim.chain.packets import estimate_frame
 from nodesim.chain.network import schedule_of
 from nodesim.errors import NodesimError
 from nodesim.replay.reader import NodeLog, ReplayLog
@@ -149,6 +154,7 @@ class NodeReplay:
     encoder_rad: np.ndarray  # latest encoder reading at the tick (NaN without)
     held_ticks: int
     overflows: dict = field(default_factory=dict)
+    frames: np.ndarray | None = None  # (K, 27) uint8 the estimate frames it encoded where the log records one sent
 
 
 def _per_tick(node: NodeLog, ticks: np.ndarray, name: str) -> np.ndarray:
@@ -160,6 +166,17 @@ def _per_tick(node: NodeLog, ticks: np.ndarray, name: str) -> np.ndarray:
     inside = k < ticks.size
     out[k[inside]] = v[ok][inside]
     return out
+
+
+def recorded_frames(node: NodeLog, ticks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(frames (K, 27) uint8, source row index (K,), -1 where none): the estimate frame the log records at each
+    tick (the row in (t_{k-1}, t_k] that has one)."""
+    frames, src = np.zeros((ticks.size, fr.ESTIMATE_BYTES), np.uint8), np.full(ticks.size, -1, np.int64)
+    rows = np.flatnonzero(node.extra["frame"][:, 0] != 0)
+    k = np.searchsorted(ticks, node.t_s[rows], side="left")
+    inside = k < ticks.size
+    frames[k[inside]], src[k[inside]] = node.extra["frame"][rows[inside]], rows[inside]
+    return frames, src
 
 
 def tick_times(node: NodeLog, rate_hz: float) -> np.ndarray:
@@ -325,6 +342,9 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
     no_enc = node.encoder_rad is None
     fw = FirmwareLanes(cfg, 1)
     yaw_word = np.zeros(K, np.int64)
+    # the log's send schedule: where the node sent a frame, the replay sends its own (the ticks since power-up as seq)
+    sends = recorded_frames(node, ticks)[1] >= 0 if node.has("frame") else np.zeros(K, dtype=bool)
+    frames = np.zeros((K, fr.ESTIMATE_BYTES), np.uint8) if node.has("frame") else None
     for k in range(K):
         if static[k]:  # the static window reports the encoder's yaw, as the chain's firmware does
             fw.tick(nf.STATIC, gz[k], n[k])
@@ -342,6 +362,9 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
             running[k] = True
         yaw[k], pvar[k], bias[k] = fw.yaw_rad[0], fw.yaw_variance_rad2[0], fw.bias_rad_s[0]
         yaw_word[k] = fw.yaw_raw[0]
+        if sends[k]:
+            frames[k] = estimate_frame(node.node_id, k, timer_us(ticks[k]), fw.yaw_raw, fw.var_raw,
+                                       fw.outputs[:, nf.OUT_RATE], fw.states[:, fk.I_BIAS])[0]
     # the survey as the chain's fixed firmware resolves it (nodesim.chain.network._node_run)
     inc_raw, azi_raw = np.zeros((1, K), np.int64), np.zeros((1, K), np.int64)
     lo, hi = _alignment_ticks(setup, t_log, ticks)
@@ -349,7 +372,8 @@ def replay_node_firmware(node: NodeLog, setup: FirmwareSetup, schedule: UpdateSc
                               setup.moving_average_points, cfg.survey_mode, cfg.cordic_iterations, inc_raw, azi_raw,
                               cfg.formats.yaw.frac_bits)
     inc, azi = node_survey.inclination_rad(inc_raw)[0], node_survey.azimuth_rad(azi_raw)[0]
-    return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held, fw.overflow_counts)
+    return NodeReplay(node.node_id, ticks, yaw, pvar, bias, inc, azi, applied, running, enc, held, fw.overflow_counts,
+                      frames)
 
 
 def replay_log(log: ReplayLog, setup: FirmwareSetup, schedule: UpdateSchedule | None) -> tuple[NodeReplay, ...]:

@@ -15,6 +15,9 @@ realization or a node never changes the streams of the others:
                                                           links: its shadowing draws)
       skip link of node h = realization.spawn(4N + ...)[4N + h]   (the ad-hoc fallback from node h, 1-based,
                                                           to the node after its neighbour)
+      bit errors of a link = child 0 of that link's (or skip link's) SeedSequence: its key for the
+                                                          counter-based bit-error stream (mac.bit_errors,
+                                                          nodesim.chain.bit_errors), the first uint64 word
 
 Realization index r of a run is ``simulation.first_realization + i`` for its i-th realization (i = 0..R-1):
 a run with R realizations is exactly the R runs of one realization each with first_realization = r, and
@@ -231,3 +234,11 @@ class RunStreams:
     def skip_link_states(self, realizations: int, node: int) -> np.ndarray:
         """:meth:`skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.rng.pcg64`."""
         return pcg64_states(self.seed, self._keys(realizations, self._skip_child(node)))
+
+    def bit_error_keys(self, realizations: int, link: int) -> np.ndarray:
+        """Link ``link``'s bit-error keys (realizations,) uint64 (module docstring: child 0 of its stream)."""
+        return seed_words(self.seed, self._keys(realizations, self._link_child(link), 0))[:, 0].copy()
+
+    def skip_bit_error_keys(self, realizations: int, node: int) -> np.ndarray:
+        """The bit-error keys of node ``node``'s fallback skip link (1-based sender)."""
+        return seed_words(self.seed, self._keys(realizations, self._skip_child(node), 0))[:, 0].copy()

@@ -15,6 +15,7 @@ from pydantic import Field, model_validator
 
 from firmware_model.frames import ESTIMATE_BYTES
 from nodesim.scenario.section_base import _Section
+from nodesim.errors import NodesimError
 
 Kind = Literal["soil", "pipe", "cable"]
 
@@ -94,6 +95,9 @@ class RadioSection(_Section):
     hop: list[HopOverride] = Field(default_factory=list)
 
 
+MAX_FRAME_BYTES = 255
+
+
 class MacSection(_Section):
     """Stop-and-wait ARQ MAC (``enabled = false``: one attempt per frame, no ACK, no queue).
 
@@ -107,6 +111,9 @@ class MacSection(_Section):
     preamble_bits: int = Field(56, ge=0, le=100_000, description="preamble + sync word + PHY header bits before "
                                "the frame (CC1101: 32 + 16 + 8)")
     ack_bits: int = Field(64, ge=8, le=100_000)
+    bit_errors: bool = Field(False, description="draw each try's bit errors from the hop's BER and decode the frame "
+                             "(CRC failure: dropped, retried; undetected: accepted, counted); needs radio.model = "
+                             "'channel' and filter.implementation = 'fixed'")
     max_retries: int = Field(3, ge=0, le=20)
     ack_timeout_s: float = Field(0.01, gt=0.0, le=10.0)
     turnaround_s: float = Field(0.0002, ge=0.0, le=1.0, description="RX/TX switch time")
@@ -131,7 +138,15 @@ class MacSection(_Section):
     @property
     def data_frame_bits(self) -> int:
         """Bits on air per data frame: preamble_bits + 8 * ESTIMATE_BYTES."""
-        return self.preamble_bits + 8 * ESTIMATE_BYTES
+        return self.frame_bits(ESTIMATE_BYTES)
+
+    def frame_bits(self, n_bytes: int) -> int:
+        """Bits on air of a frame of ``n_bytes`` bytes: preamble_bits + 8 * n_bytes.  The CC1101's length byte
+        limits a frame to MAX_FRAME_BYTES (datasheet SWRS061 sec. 15.2, variable packet length mode)."""
+        if not 1 <= n_bytes <= MAX_FRAME_BYTES:
+            raise NodesimError(f"a frame of {n_bytes} bytes does not fit the MAC's frame (allowed: 1..{MAX_FRAME_BYTES} "
+                               f"bytes, the radio's length byte)")
+        return self.preamble_bits + 8 * n_bytes
 
 
 class NodeFailure(_Section):

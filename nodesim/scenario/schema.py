@@ -317,6 +317,11 @@ class Scenario(_Section):
                 f"firmware.alignment = 'slow_rotation' needs the lab profile's slow rotation of at least one turn "
                 f"(motion.kind = {self.motion.kind!r}, motion.slow_turns = {self.motion.slow_turns}); allowed: "
                 "'auto', 'none', or a lab motion with slow_turns >= 1")
+        if self.mac.bit_errors and (self.radio.model != "channel" or self.filter.implementation != "fixed"):
+            raise ValueError(
+                f"mac.bit_errors = true needs radio.model = 'channel' (the bit error rate comes from its link "
+                f"budget; got {self.radio.model!r}) and filter.implementation = 'fixed' (the frames with bytes; "
+                f"got {self.filter.implementation!r})")
         if self.motion.kind == "drilling":
             needed = self.motion.drilling_duration_s(self.chain.nodes)
             if self.simulation.duration_s < needed:

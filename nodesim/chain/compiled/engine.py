@@ -12,7 +12,9 @@ channels, links with their draw streams, faults: the same objects the SimPy engi
 Bit-identical to the SimPy engine (tests/nodesim/chain/test_compiled.py compares every record).  Covered:
 lab motion (every node present from t = 0, node 1 on top), every schedule, simple and channel links, the MAC,
 node failures, outages, bursts, clock steps and the fallback, float and fixed filters (default fixed-point
-policy).  Drilling runs (tube insertions, holds, survey stops and surveys going up) stay on the SimPy engine.
+policy), the fixed firmware's estimate frames as bytes (:mod:`.frame_pass`) and ``mac.bit_errors`` (phase 1 decides
+each try on its error pattern, phase 2 applies the flips the CRC let through to the received bytes,
+:mod:`nodesim.chain.bit_errors`).  Drilling runs (tube insertions, holds, survey stops and surveys going up) stay on the SimPy engine.
 Uniform draws are buffered per link and realization from the link's own stream; a lane that runs out makes
 phase 1 start again with a longer buffer (same stream, same numbers).
 """
@@ -28,8 +30,10 @@ from nodesim import threads
 from nodesim.rng import pcg64
 from nodesim.chain.compiled import events as ev
 from firmware_model import fixed_kernel
+from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
-from nodesim.chain.compiled import filters, float_kernel
+from nodesim.chain import bit_errors
+from nodesim.chain.compiled import filters, float_kernel, frame_pass
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
@@ -91,6 +95,7 @@ class _Links:
             n_out[i] = len(outages[i])
         self.chan = (per_data, per_ack, rows, step, air, ack_air, burst, out, n_out)
         self.margin = margin
+        self.bits = self._bits(channels)
         self.sizes = np.zeros((R, L), dtype=np.int64)
         m = net.scenario.mac
         attempts = 1 + m.max_retries if m.enabled else 1
@@ -105,6 +110,30 @@ class _Links:
         self.start = np.zeros((R, L), dtype=np.int64)
         self.states: list[np.ndarray | None] = [None] * L
         self._fill(np.zeros((R, L), dtype=np.int64))
+
+    def _bits(self, channels) -> tuple:
+        """``mac.bit_errors`` (:mod:`.mac_kernel`): BER and preamble loss tables and the bit-error keys of the
+        links that carry estimate frames (down links 1.., skip links; placeholders when off)."""
+        net = self.net
+        N, R, L = net.n_nodes, net.R, len(channels)
+        on = net.scenario.mac.bit_errors
+        G = self.chan[0].shape[2] if on else 1
+        ber, per_pre = np.zeros((R, L, G) if on else (1, 1, 1)), np.zeros((R, L, G) if on else (1, 1, 1))
+        keys = np.zeros((R, L) if on else (1, 1), np.uint64)
+        has_bytes = np.zeros(L, dtype=bool)
+        for i, ch in enumerate(channels):
+            if not on or ch is None or i == 0:  # link 0 carries the encoder exchange (no frame bytes)
+                continue
+            g = ch.ber_table.shape[0]
+            ber[:, i, :g], per_pre[:, i, :g] = ch.ber_table.T, ch.per_preamble_table.T
+            keys[:, i] = (net._streams.bit_error_keys(R, i) if i < N else
+                          net._streams.skip_bit_error_keys(R, i - N + 1))
+            has_bytes[i] = True
+        K = max(n.sig.t_s.size for n in net.nodes)
+        err = (np.full((R, N, K) if on else (1, 1, 1), -1, np.int64), np.zeros((R, N, K) if on else (1, 1, 1)))
+        counts = np.zeros((R, L), np.int64), np.zeros((R, L), np.int64)
+        return (on, ber, per_pre, keys, has_bytes, bit_errors.zero_frame(fr.ESTIMATE), fr.ESTIMATE_LAYOUT,
+                fr.ESTIMATE, *counts, *err)
 
     def link(self, i: int):
         """Link ``i``'s object (a skip link is built on first use, as the SimPy engine does)."""
@@ -165,6 +194,8 @@ class _Links:
             x.stats.frames, x.stats.delivered = frames[:, i].copy(), delivered[:, i].copy()
             x.stats.attempts, x.stats.dropped = attempts[:, i].copy(), dropped[:, i].copy()
             x.stats.latency_sum_s = latency[:, i].copy()
+            if self.bits[0]:
+                x.stats.crc_rejected, x.stats.undetected = self.bits[8][:, i].copy(), self.bits[9][:, i].copy()
 
 
 def _resolve(net, links: _Links):
@@ -195,7 +226,12 @@ def _resolve(net, links: _Links):
         stats = (np.zeros((R, L), np.int64), np.zeros((R, L), np.int64), np.zeros((R, L), np.int64),
                  np.zeros((R, L), np.int64), np.zeros((R, L)), np.zeros((R, L), dtype=bool))
         inbox = (np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots), np.int64),
-                 np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots)), np.zeros((R, N), np.int64))
+                 np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots)), np.zeros((R, N), np.int64),
+                 np.full((R, N, slots), -1, np.int64), np.zeros((R, N, slots)))
+        bits = links.bits
+        for a in bits[8:10]:
+            a[:] = 0
+        bits[10][:] = -1
         out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
                np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32), np.full((R, Kmax), np.nan),
                np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
@@ -203,9 +239,10 @@ def _resolve(net, links: _Links):
 
         def run(r0: int, r1: int):  # called within this pass of the loop: the arrays above
             need = np.zeros(3, np.int64)
+            scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
             status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
-                                   links.margin, draws, radio, stats, mac, inbox, last_seq, streak, out, need,
-                                   np.zeros(N, dtype=bool), r0, r1)
+                                   links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
+                                   out, need, np.zeros(N, dtype=bool), r0, r1)
             return status, need
 
         ended = threads.map_chunks(run, R)
@@ -222,7 +259,7 @@ def _resolve(net, links: _Links):
             links.more(link, lane, (event + 1) / order[0].size)
 
 
-def _run_node(net, n: int, out) -> None:
+def _run_node(net, n: int, out, bits) -> None:
     """Phase 2 for node index ``n`` (module docstring); writes the node's records."""
     from nodesim.chain.estimator import new_filter
 
@@ -240,7 +277,7 @@ def _run_node(net, n: int, out) -> None:
     if n_static >= k_end:
         return
     if net.scenario.filter.implementation == "fixed":
-        _run_node_firmware(net, n, out, k_end, n_static)
+        _run_node_firmware(net, n, out, k_end, n_static, bits)
         return
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
@@ -275,13 +312,36 @@ def _run_node(net, n: int, out) -> None:
         node.kf.ctx.counter.record(site, count)
 
 
-def _run_node_firmware(net, n: int, out, k_end: int, n_static: int) -> None:
+def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
+    """The estimate frames node index ``n`` received from the nodes above (``offset`` 1) and two above (2): theirs,
+    with ``mac.bit_errors`` flips the CRC let through (phase 1's records) applied in a copy where there are any."""
+    frames = [a.frames for a in above]
+    if not bits[0]:
+        return tuple(frames)
+    K = offset.shape[1]
+    tries, bers = bits[10][:, n, :K], bits[11][:, n, :K]
+    for s in (1, 2):
+        r, k = np.nonzero((tries >= 0) & (offset == s))
+        if r.size:
+            link = n if s == 1 else net.n_nodes + n - 2  # the down link into n, or the skip link of node n - 2
+            j = src_tick[r, k]
+            got = frames[s - 1][r, j].copy()  # one frame per (r, j): a sender's frame is taken once per receiver
+            bit_errors.apply_flips(bits[3][r, link], tries[r, k], bers[r, k], got)
+            frames[s - 1] = frames[s - 1].copy()
+            frames[s - 1][r, j] = got
+    return tuple(frames)
+
+
+def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> None:
     """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`)."""
     node, sig = net.nodes[n], net.nodes[n].sig
     _, _, _, src_node, src_tick, enc_t_read, _, _ = out
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
-    yaw_enc = fw.config.encoder_yaw_raw(net.encoder.read_many(t)[0]) * np.ones((R, 1), np.int64)
+    # the encoder's binary angle is read at the tick itself up to the filter start (static window, start); the
+    # top node's replies after it are filled in below, no other tick reads it
+    yaw_enc = np.zeros((R, K), np.int64)
+    yaw_enc[:, :n_static + 1] = fw.config.encoder_yaw_raw(net.encoder.read_many(t[:n_static + 1])[0])
     enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     if n == 0:
         t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
@@ -293,18 +353,32 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int) -> None:
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    up = (tuple(a.sig.t_s for a in above), tuple(a.yaw_raw for a in above), tuple(a.var_raw for a in above))
+    rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    up_frames = _received_frames(net, n, above, offset, src_tick[:, n, :K], bits)
     inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+    words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
+        if n > 0:
+            frame_pass.receive_frames(offset, src_tick[:, n, :K], n_static + 1, k_end, up_frames, *rx, words, r0, r1)
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, n_static,
                                   k_end, n == 0, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
-                                  *up, inp, res, node.yaw_raw, node.var_raw, node.yaw, node.var, node.bias,
-                                  node.ref_yaw, node.ref_var, r0, r1)
+                                  tuple(a.sig.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
+                                  bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
         return counts
 
     fw.counts += sum(threads.map_chunks(run, R))
+    node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
+    if n < net.n_nodes - 1:  # the bottom node sends nothing
+        status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
+            node.node_id, node.first_tick, net.forward_every_tick, n_static + 1, k_end, node.applied, t, node.yaw_raw,
+            node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
+        if status < 0:
+            name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
+            raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
+                               f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None):
@@ -319,7 +393,7 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None):
     if progress is not None:
         progress(0.5)  # phase 1 done; phase 2 reports node by node
     for n in range(net.n_nodes):
-        _run_node(net, n, out)
+        _run_node(net, n, out, links.bits)
         if progress is not None:
             progress(0.5 + 0.5 * (n + 1) / net.n_nodes)
     return net.result()

@@ -82,31 +82,34 @@ def _pop(h_t, h_e, h_n, size):
 
 
 @njit(cache=True)
-def _deliver(inbox, r, receiver, seq, sender, tick, arrival) -> bool:
-    i_seq, i_src, i_tick, i_arr, i_count = inbox
+def _deliver(inbox, r, receiver, seq, sender, tick, arrival, c_try, c_ber) -> bool:
+    i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber = inbox
     c = i_count[r, receiver]
     if c == i_seq.shape[2]:
         return False
     i_seq[r, receiver, c], i_src[r, receiver, c], i_tick[r, receiver, c] = seq, sender, tick
     i_arr[r, receiver, c] = arrival
+    i_try[r, receiver, c], i_ber[r, receiver, c] = c_try, c_ber
     i_count[r, receiver] = c + 1
     return True
 
 
 @njit(cache=True)
 def _swap(inbox, r, n, i, j) -> None:
-    i_seq, i_src, i_tick, i_arr, _ = inbox
+    i_seq, i_src, i_tick, i_arr, _, i_try, i_ber = inbox
     i_seq[r, n, i], i_seq[r, n, j] = i_seq[r, n, j], i_seq[r, n, i]
     i_src[r, n, i], i_src[r, n, j] = i_src[r, n, j], i_src[r, n, i]
     i_tick[r, n, i], i_tick[r, n, j] = i_tick[r, n, j], i_tick[r, n, i]
     i_arr[r, n, i], i_arr[r, n, j] = i_arr[r, n, j], i_arr[r, n, i]
+    i_try[r, n, i], i_try[r, n, j] = i_try[r, n, j], i_try[r, n, i]
+    i_ber[r, n, i], i_ber[r, n, j] = i_ber[r, n, j], i_ber[r, n, i]
 
 
 @njit(cache=True, inline="always")
-def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age) -> bool:
+def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age, bits) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
-    True if a fresh packet was taken."""
-    i_seq, i_src, i_tick, i_arr, i_count = inbox
+    True if a fresh packet was taken (with ``mac.bit_errors``, its corrupting try, if any, is recorded)."""
+    i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber = inbox
     c = i_count[r, n]
     m = 0
     for i in range(c):  # the arrived ones to the front, newest first (insertion sort; an inbox holds a few)
@@ -135,6 +138,8 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src
             seq_taken = i_seq[r, n, j]
             src_node[r, n, k], src_tick[r, n, k] = i_src[r, n, j], i_tick[r, n, j]
             age[r, n, k] = t - t_read
+            if bits[0]:
+                bits[10][r, n, k], bits[11][r, n, k] = i_try[r, n, j], i_ber[r, n, j]
     if have:
         last_seq[r, n] = seq_taken
     for i in range(m, c):  # drop the arrived packets
@@ -175,11 +180,11 @@ def event_order(T, K, dead_at):
 
 @njit(cache=True, _nrt=False, nogil=True)
 def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, chan, margin, draws, radio, stats,
-               mac, inbox, last_seq, streak, out, need, started, r_first, r_end):
+               mac, bits, scratch, inbox, last_seq, streak, out, need, started, r_first, r_end):
     """Run every event of ``order`` (from :func:`event_order`) in realizations ``r_first`` .. ``r_end - 1``
     (module docstring; disjoint ranges may run on parallel threads, each with its own ``need`` and ``started``).
     ``nodes_cfg`` = (processing_s, max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,)
-    int, after_failures, min_margin_db); ``out`` = (running (K, N), applied (R, N, K), age, src_node, src_tick
+    int, after_failures, min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age, src_node, src_tick
     (R, N, K), encoder t_read (R, K), stale (R, N), duplicate (R, N)); ``running`` is the same in every
     realization and written by realization 0.  Returns a status code."""
     N = T.shape[1]
@@ -205,15 +210,16 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
             valid = every_tick
             if n == 0:
                 if scheduled[k]:
-                    got, arr, end, short = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac)
+                    got, arr, end, short, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats,
+                                                          mac, bits, scratch)
                     if short:
                         need[0], need[1], need[2] = 0, r, e
                         return NEED_DRAWS
                     t_read = arr if got else t
                     enc_t_read[r, k] = t_read
                     if got:
-                        have, arr2, end2, short = transfer(0, r, end, surface, n, np.inf, chan, draws, radio, stats,
-                                                           mac)
+                        have, arr2, end2, short, _, _ = transfer(0, r, end, surface, n, np.inf, chan, draws, radio,
+                                                                 stats, mac, bits, scratch)
                         if short:
                             need[0], need[1], need[2] = 0, r, e
                             return NEED_DRAWS
@@ -222,17 +228,17 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
                             age[r, n, k] = arr2 - t_read
                             ready = arr2
                             valid = True
-            elif _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age):
+            elif _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age, bits):
                 applied[r, n, k] = True
                 valid = True
             if n == N - 1 or not valid:
                 continue
-            got, arr, end, short = transfer(n + 1, r, ready + processing_s, n, n + 1, dead_at[n + 1], chan, draws,
-                                            radio, stats, mac)
+            got, arr, end, short, c_try, c_ber = transfer(n + 1, r, ready + processing_s, n, n + 1, dead_at[n + 1],
+                                                          chan, draws, radio, stats, mac, bits, scratch)
             if short:
                 need[0], need[1], need[2] = n + 1, r, e
                 return NEED_DRAWS
-            if got and not _deliver(inbox, r, n + 1, seq, n, k, arr):
+            if got and not _deliver(inbox, r, n + 1, seq, n, k, arr, c_try, c_ber):
                 return INBOX_FULL
             if not fb_on[n] or math.isnan(end):  # fallback off, or the queue dropped the frame (faults.Fallback)
                 continue
@@ -243,11 +249,11 @@ def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, 
             link = fb_link[n]
             g = time_row(chan, link, t)
             if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
-                got, arr, end, short = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio, stats,
-                                                mac)
+                got, arr, end, short, c_try, c_ber = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws,
+                                                              radio, stats, mac, bits, scratch)
                 if short:
                     need[0], need[1], need[2] = link, r, e
                     return NEED_DRAWS
-                if got and not _deliver(inbox, r, n + 2, seq, n, k, arr):
+                if got and not _deliver(inbox, r, n + 2, seq, n, k, arr, c_try, c_ber):
                     return INBOX_FULL
     return DONE

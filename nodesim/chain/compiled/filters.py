@@ -96,14 +96,16 @@ def sequential_sum(gyro, stop: int):
 
 @njit(cache=True, _nrt=False, nogil=True)
 def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t, n_static, k_end, is_top, applied,
-                      enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, up_yaw_raw, up_var_raw,
-                      inp, out, yaw_raw, var_raw, yaw, var, bias, ref_yaw, ref_var, r_first, r_end) -> None:
+                      enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, rx_yaw_raw, rx_var_raw,
+                      inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var, bias, ref_yaw, ref_var, r_first,
+                      r_end) -> None:
     """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`) of one node over ticks
     0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``: static window before ``n_static``, the filter
     started at ``n_static``, then predict and the reference phase 1 chose (the encoder reply read ``enc_back_us``
-    after the tick for the top node; the frame of node n - s read at its tick j for the others).  Records the
-    yaw and P_yy raws (what the node below receives) and the floats the SimPy engine records.  ``inp``/``out``:
-    (R, len(INPUTS)) / (R, len(OUTPUTS)) work rows, one per realization."""
+    after the tick for the top node; for the others ``rx_*_raw[r, k]``, the yaw and P_yy words decoded from the
+    estimate frame node n - s sent at its tick j, :func:`.frame_pass.receive_frames`).  Records the yaw, P_yy,
+    rate and bias raws (the words of the frame it sends, :func:`.frame_pass.send_frames`) and the floats the SimPy
+    engine records.  ``inp``/``out``: (R, len(INPUTS)) / (R, len(OUTPUTS)) work rows, one per realization."""
     fy, fyy, fb = fparams[fxk.W_YAW + 1], fparams[fxk.W_YY + 1], fparams[fxk.W_BIAS + 1]
     for r in range(r_first, r_end):
         st, x, o = states[r], inp[r], out[r]
@@ -122,13 +124,14 @@ def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t,
                         x[nf.IN_REF_AUX], x[nf.IN_TRANSFER] = enc_rate_raw[r, k], enc_back_us[r, k]
                 elif src_node[r, k] > 0:
                     s, j = src_node[r, k] - 1, src_tick[r, k]
-                    x[nf.IN_REF], x[nf.IN_REF_YAW], x[nf.IN_REF_AUX] = nf.FORWARDED_REF, up_yaw_raw[s][r, j], up_var_raw[s][r, j]
+                    x[nf.IN_REF], x[nf.IN_REF_YAW], x[nf.IN_REF_AUX] = nf.FORWARDED_REF, rx_yaw_raw[r, k], rx_var_raw[r, k]
                     x[nf.IN_TRANSFER] = np.int64(np.rint((t[k] - up_t[s][j]) * 1e6))  # estimator.timer_us
             nf.node_tick(st, params, fparams, counts, x, o)
             if k < n_static:  # the static window reports the encoder's yaw (its survey's azimuth reference)
                 yaw_raw[r, k] = enc_yaw_raw[r, k]
                 continue
             yaw_raw[r, k], var_raw[r, k] = st[fxk.I_YAW], st[fxk.I_PYY]
+            rate_raw[r, k], bias_raw[r, k] = o[nf.OUT_RATE], st[fxk.I_BIAS]
             yaw[r, k] = fxk.yaw_rad(st, fparams)
             var[r, k] = fxk.yaw_variance_rad2(st, fparams)
             bias[r, k] = fxk.bias_rad_s(st, fparams)

@@ -28,7 +28,7 @@ def lane_states(kf: FloatYawFilter) -> np.ndarray:
     return np.stack([kf.yaw_rad, kf.bias_rad_s, kf.p_yy, kf.p_yb, kf.p_bb], axis=1).astype(float)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def predict(state, rate_rad_s, params, counts) -> None:
     dt, two_dt, dt2, q_y, f, f2, q_b = params[0], params[1], params[2], params[3], params[4], params[5], params[6]
     yy, yb, bb = state[2], state[3], state[4]
@@ -38,7 +38,7 @@ def predict(state, rate_rad_s, params, counts) -> None:
     state[4] = f2 * bb + q_b
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def update(state, ref_rad, var_rad2, params, counts) -> None:
     innovation = np.remainder(state[0] - ref_rad + math.pi, 2.0 * math.pi) - math.pi
     yy, yb, bb = state[2], state[3], state[4]
@@ -51,16 +51,16 @@ def update(state, ref_rad, var_rad2, params, counts) -> None:
     state[4] = bb - k_b * yb
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def yaw_rad(state, params) -> float:
     return state[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def bias_rad_s(state, params) -> float:
     return state[1]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def yaw_variance_rad2(state, params) -> float:
     return state[2]

@@ -16,6 +16,10 @@ steps, R realizations, radios = nodes + the surface station):
 ``radio`` = (busy_start, busy_end, free_at (R, radios), queue_end (R, radios, Q), tx_s, rx_s (R, radios))
 ``stats`` = (frames, delivered, attempts, dropped (R, L) int64, latency_sum_s (R, L), bad (R, L) bool)
 ``mac``   = (enabled, max_retries, queue_length, turnaround_s, ack_timeout_s, duty_cycle) as float64
+``bits``  = (on, ber (R, L, G), per_preamble (R, L, G), keys (R, L) uint64, has_bytes (L,) bool, the all-zero
+            frame, its layout and type, crc_rejected (R, L), undetected (R, L), then the receivers' records
+            err_try, err_ber (R, N, K)): ``mac.bit_errors`` (:mod:`nodesim.chain.bit_errors`); ``scratch`` = (frame
+            (bytes,) uint8, values (fields,) int64) work rows of this range of realizations
 A lane that runs out of buffered draws returns ``exhausted``: the caller buffers more and runs again from the start
 (draws come from the link's own stream, so a longer buffer changes nothing else).
 """
@@ -26,6 +30,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from nodesim.chain.bit_errors import frame_try
 
 
 @njit(cache=True)
@@ -49,8 +55,9 @@ def _in_outage(chan, link: int, t: float) -> bool:
 
 @njit(cache=True, inline="always")  # into phase 1's loop (events module docstring)
 def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: float, chan, draws, radio,
-             stats, mac):
-    """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, exhausted)."""
+             stats, mac, bits, scratch):
+    """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, exhausted,
+    the delivered try's number where its bit errors passed the CRC (else -1), that try's BER)."""
     per_data, per_ack = chan[0], chan[1]
     airtime, ack_airtime = chan[4][link], chan[5][link]
     burst = chan[6]
@@ -82,6 +89,8 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
     heard = 0
     wait_sum = 0.0
     alive_always = rx_dead_at_s == np.inf
+    errs = bits[0] and bits[4][link]
+    c_try, c_ber = -1, 0.0
     if sending:
         for _ in range(attempts):
             if done:
@@ -89,14 +98,14 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             n_att += 1
             p = d_pos[r, link]
             if p + per_attempt > d_avail[r, link]:
-                return False, np.nan, np.nan, True
+                return False, np.nan, np.nan, True, -1, 0.0
             u0 = buf[d_start[r, link] + p]
             u1 = buf[d_start[r, link] + p + 1] if per_attempt > 1 else 0.0
             u_state = buf[d_start[r, link] + p + per_attempt - 2] if has_burst else 0.0
             u_loss = buf[d_start[r, link] + p + per_attempt - 1] if has_burst else 0.0
             d_pos[r, link] = p + per_attempt
             g = time_row(chan, link, t)
-            ok = u0 >= per_data[r, link, g]
+            ok = u0 >= (bits[2][r, link, g] if errs else per_data[r, link, g])
             if not alive_always:
                 alive = t < rx_dead_at_s
                 ok = ok and alive
@@ -114,6 +123,17 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
                     ok = False
             if enabled and t < busy_end[r, rx] and t + airtime > busy_start[r, rx]:
                 ok = False
+            if errs and ok:  # the receiver decodes the frame with the try's bit errors
+                try_no, ber = attempts_n[r, link] + n_att - 1, bits[1][r, link, g]
+                flips, accepted = frame_try(bits[3][r, link], try_no, ber, bits[5], scratch[0], bits[6], bits[7],
+                                            scratch[1])
+                if not accepted:
+                    bits[8][r, link] += 1
+                    ok = False
+                elif flips > 0:
+                    bits[9][r, link] += 1
+                    if math.isnan(arrival):
+                        c_try, c_ber = try_no, ber
             if ok and math.isnan(arrival):
                 arrival = t + airtime
             if not enabled:
@@ -149,4 +169,4 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             if queue_end[r, tx, q] < queue_end[r, tx, slot]:
                 slot = q
         queue_end[r, tx, slot] = t
-    return got, arrival, end, False
+    return got, arrival, end, False, c_try, c_ber

@@ -62,11 +62,22 @@ CASES = {
 }
 
 
+UNDETECTED = {**LOSSY, "filter.implementation": "fixed", "mac.bit_errors": True, "mac.preamble_bits": 0,
+              "mac.max_retries": 20, "radio.soil.distance_m": 2.3, "simulation.realizations": 10, "seed": 4}
+
 FIXED = {  # the bit-exact fixed-point filter (its overflow counting is checked lane by lane in test_fixed_kernel.py)
     "fixed, lossy hops": {**LOSSY, "filter.implementation": "fixed"},
     "fixed, dead node and fallback": {**CASES["dead node, fallback"], "filter.implementation": "fixed"},
     "fixed, every tick, extrapolated": {**CASES["every tick, extrapolated rate"], "filter.implementation": "fixed"},
     "fixed, 16-bit word": {**LOSSY, "filter.implementation": "fixed", "filter.fixed_word_bits": 16},
+    "fixed, MPU6500 count model": {**LOSSY, "filter.implementation": "fixed", "sensor.model": "mpu6500_counts"},
+    # mac.bit_errors: CRC rejections and ARQ retries; then a hop so bad (BER 0.27, no preamble, 21 tries) that the
+    # only estimate taken below the top node is a corruption the CRC-16 let through (seed 4: one, on hop 2)
+    "fixed, bit errors": {**LOSSY, "filter.implementation": "fixed", "mac.bit_errors": True},
+    "fixed, bit errors, dead node and fallback": {**CASES["dead node, fallback"], "filter.implementation": "fixed",
+                                                  "mac.bit_errors": True, "radio.soil.distance_m": 1.1,
+                                                  "faults.fallback_min_margin_db": -20.0},
+    "fixed, bit errors, undetected corruption used": UNDETECTED,
 }
 
 
@@ -93,7 +104,7 @@ def assert_identical(event, compiled) -> None:
     pairs = list(zip(event.down_links + event.up_links, compiled.down_links + compiled.up_links, strict=True))
     assert [x.channel.name for x in event.skip_links] == [x.channel.name for x in compiled.skip_links]
     for la, lb in pairs + list(zip(event.skip_links, compiled.skip_links)):
-        for f in ("frames", "delivered", "attempts", "dropped", "latency_sum_s"):
+        for f in ("frames", "delivered", "attempts", "dropped", "latency_sum_s", "crc_rejected", "undetected"):
             _same(getattr(la.stats, f), getattr(lb.stats, f), f"{la.channel.name} {f}")
 
 
@@ -109,6 +120,16 @@ def test_lossy_case_exercises_retries_losses_and_lane_differences():
     link = run.down_links[2]
     assert (link.stats.attempts > link.stats.frames).all() and run.lost_packets.sum() > 0
     assert not np.array_equal(run.nodes[3].update_mask[0], run.nodes[3].update_mask[1])
+
+
+def test_bit_error_cases_exercise_rejections_and_an_undetected_corruption():
+    event, _ = _both(FIXED["fixed, bit errors"])
+    assert all(x.stats.crc_rejected.sum() > 20 for x in event.down_links[1:])
+    event, _ = _both(FIXED["fixed, bit errors, dead node and fallback"])
+    assert sum(x.stats.crc_rejected.sum() for x in event.skip_links) > 0
+    event, _ = _both(UNDETECTED)
+    assert sum(x.stats.undetected.sum() for x in event.down_links) >= 1
+    assert sum(n.update_mask.sum() for n in event.nodes[1:]) >= 1  # and it was used
 
 
 def test_fallback_and_queue_cases_exercise_their_paths():

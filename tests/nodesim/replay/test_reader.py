@@ -192,3 +192,41 @@ def test_si_values_round_trip_exactly(tmp_path_factory, values, kind):
     path = write_log(tmp_path_factory.mktemp("rt") / f"log.{kind}", [NodeRecording(1, cols)], lf.LogMeta())
     node = read_log(path).nodes[0]
     assert np.array_equal(node.gyro_rad_s[:, 1], v) and np.array_equal(node.encoder_rad, v)
+
+
+def _frames_log(tmp_path, suffix="csv"):
+    from firmware_model import frames as fr
+
+    node, meta = counts_log()
+    values = np.array([[1, k, 100_000 * k, 1000 * k, 5, -3, 7] for k in range(40)])
+    sent = fr.encode(fr.ESTIMATE, values)[0]
+    node.columns["frame"] = np.array([sent[k].tobytes().hex() if k % 3 == 0 else None for k in range(40)],
+                                     dtype=object)
+    return write_log(tmp_path / f"frames.{suffix}", [node], meta), sent
+
+
+@pytest.mark.parametrize("suffix", ["csv", "parquet"])
+def test_frames_round_trip_as_hex(tmp_path, suffix):
+    path, sent = _frames_log(tmp_path, suffix)
+    got = read_log(path).nodes[0].extra["frame"]
+    assert got.shape == (40, 27) and got.dtype == np.uint8
+    every_third = np.arange(40) % 3 == 0
+    assert np.array_equal(got[every_third], sent[every_third]) and not got[~every_third].any()
+
+
+@pytest.mark.parametrize("cell, message", [
+    ("abc", "allowed 54 hex digits"),
+    ("zz" * 27, "allowed 54 hex digits"),
+    ("01" * 27, "fails its CRC-16"),
+])
+def test_a_bad_frame_cell_names_its_line(tmp_path, cell, message):
+    path, _ = _frames_log(tmp_path)
+    lines = path.read_text().splitlines()
+    names = lines[HEADER_LINES].split(",")
+    col = names.index("frame")
+    cells = lines[FIRST_DATA_LINE + 2].split(",")  # a row (k = 3) that carries a frame
+    cells[col] = cell
+    lines[FIRST_DATA_LINE + 2] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(NodesimError, match=f"line {FIRST_DATA_LINE + 3}: frame = .*{message}"):
+        read_log(path)

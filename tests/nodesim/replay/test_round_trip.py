@@ -75,6 +75,37 @@ def test_fixed_point_two_node_chain_round_trip(tmp_path):
     for k in range(2):
         assert_bit_identical(outputs(run, k), replayed(out, k))
     assert out.summary["bit_identical"] is True
+    # frames included: the replay re-encodes, from its own firmware words, every frame the top node sent
+    frame = out.summary["comparison"]["1"]["frame"]
+    sent = int((run.nodes[0].estimate_frames[0, :, 0] != 0).sum())
+    assert frame["compared_ticks"] == sent > 100 and frame["identical_ticks"] == sent
+    assert np.array_equal(out.replays[0].frames, run.nodes[0].estimate_frames[0])
+    assert "frame" not in out.summary["comparison"]["2"] or out.summary["comparison"]["2"]["frame"]["compared_ticks"] == 0
+
+
+def test_a_changed_frame_in_the_log_is_a_divergence_naming_its_line(tmp_path):
+    """One recorded frame re-encoded with another yaw word (a valid frame, CRC and all): the replay's frame
+    differs there, and the first divergence gives its tick and line."""
+    from firmware_model import frames as fr
+
+    cfg, scenario = short_lab(tmp_path, {"duration_s": "200.0", "nodes": "2", "implementation": '"fixed"'}, "two")
+    run = simulate_chain(scenario)
+    log = record_chain_run(tmp_path / "two.csv", run, scenario)
+    lines = log.read_text().splitlines()
+    names = next(line for line in lines if not line.startswith("#")).split(",")
+    col = names.index("frame")
+    i = next(j for j, line in enumerate(lines) if not line.startswith("#") and len(line.split(",")[col]) == 54)
+    cells = lines[i].split(",")
+    values, _ = fr.decode(fr.ESTIMATE, np.frombuffer(bytes.fromhex(cells[col]), np.uint8)[None])
+    values[0, fr.EST_YAW] += 1
+    cells[col] = fr.encode(fr.ESTIMATE, values)[0][0].tobytes().hex()
+    lines[i] = ",".join(cells)
+    log.write_text("\n".join(lines) + "\n")
+    out = replay(log, cfg, write=False)
+    assert out.summary["bit_identical"] is False
+    first = out.summary["first_divergence"]
+    assert first["quantity"] == "frame" and first["line"] == i + 1 and first["diff"] >= 1
+    assert first["recorded"] == cells[col]
 
 
 def test_short_word_fixed_point_round_trip(tmp_path):
@@ -183,3 +214,26 @@ def test_drilling_run_with_insertions_round_trips(tmp_path):
         theirs = (n.yaw_est_rad[1], n.yaw_var_rad2[1], n.bias_est_rad_s[1], n.inclination_rad[1], n.azimuth_rad[1])
         assert_bit_identical([x[present] for x in theirs], mine)
     assert out.summary["bit_identical"] is True
+
+
+def test_fixed_point_drilling_run_round_trips_with_its_frames(tmp_path):
+    """The fixed firmware on three tubes of the field drilling run: nodes power up at their insertion, so a
+    frame's seq counts the ticks since then; the replay re-encodes every frame bit for bit."""
+    field = Path(__file__).resolve().parents[3] / "scenarios" / "field" / "drilling_10_tubes.toml"
+    text = field.read_text().replace("nodes = 10", "nodes = 3").replace("duration_s = 2200.0", "duration_s = 700.0")
+    text = text.replace("realizations = 4", "realizations = 1").replace("window_end_s = 2200.0", "window_end_s = 700.0")
+    cfg = tmp_path / "drill.toml"
+    cfg.write_text(text + '\n[filter]\nimplementation = "fixed"\n' if "[filter]" not in text else
+                   text.replace("[filter]", '[filter]\nimplementation = "fixed"'))
+    scenario = load_scenario(cfg)[0]
+    assert scenario.filter.implementation == "fixed"
+    run = simulate_chain(scenario)
+    out = replay(record_chain_run(tmp_path / "drill.csv", run, scenario), cfg, write=False)
+    assert out.summary["bit_identical"] is True
+    compared = [out.summary["comparison"][str(n.node_id)].get("frame", {}).get("compared_ticks", 0) for n in run.nodes]
+    assert sum(compared) > 50
+    for rep, n in zip(out.replays, run.nodes):
+        present = n.t_s >= n.present_from_s
+        assert np.array_equal(rep.frames, n.estimate_frames[0][present])
+    late = [n for n in run.nodes if n.present_from_s > 0 and (n.estimate_frames[0, :, 0] != 0).any()]
+    assert late  # a node inserted later sent frames: its seq starts at its power-up
