@@ -25,6 +25,7 @@ def tick_sum_speedup_vs_per_sample() -> dict:
     from nodesim.scenario.schema import load_scenario
 
     fast, _ = load_scenario(ROOT / "scenarios" / "perf" / "chain100_1h.toml")
+    fast = fast.with_overrides(**{"sensor.model": "mpu6500_counts"})
     slow = fast.with_overrides(**{"sensor.sampling": "per_sample"})
     simulate_chain(fast)
     simulate_chain(slow)
@@ -50,7 +51,7 @@ def chain_imu_node_hour() -> dict:
 
     out = {}
     for mode in ("tick_sum", "per_sample"):
-        s = Scenario().with_overrides(**{"simulation.duration_s": 3600.0, "sensor.sampling": mode})
+        s = Scenario().with_overrides(**{"simulation.duration_s": 3600.0, "sensor.model": "mpu6500_counts", "sensor.sampling": mode})
         motion, streams = build_motion(s), RunStreams(s.seed, 1)
         dt = 1.0 / s.chain.firmware_rate_hz
         offset, drift = node_clock(s, 1)

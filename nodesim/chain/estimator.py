@@ -101,9 +101,13 @@ def firmware_config(scenario: Scenario) -> FirmwareConfig:
 def alignment_window_s(scenario: Scenario) -> tuple[float, float] | None:
     """The alignment window [t0, t1) of ``firmware.alignment`` (thesis sec 4.2.3, :mod:`firmware_model.node_survey`):
     the lab profile's slow calibration rotation, or None (no alignment offset; ``auto``: the slow rotation where the
-    lab profile has at least one slow turn, so that the extremes of a full turn are seen)."""
+    nodes read the count model, the sensor with a residual tilt, and the lab profile has at least one slow turn, so
+    that the extremes of a full turn are seen; the tilt-free stand-in skips the procedure, which would only add its
+    own residual)."""
     m, mode = scenario.motion, scenario.firmware.alignment
-    if mode == "none" or m.kind != "lab" or (mode == "auto" and m.slow_turns < 1.0):
+    if mode == "none" or m.kind != "lab":
+        return None
+    if mode == "auto" and (m.slow_turns < 1.0 or scenario.sensor.model != "mpu6500_counts"):
         return None
     slow = next(p for p in lab_profile(scenario).phases if p.name == "slow_rotation")
     return slow.start_s, slow.end_s

@@ -30,11 +30,12 @@ def test_gyro_past_full_scale_clips_and_loses_yaw(tmp_path):
 
 
 def test_bundled_lab_scenarios_clip_nothing():
-    """Read through the MPU6500 count model, the lab profile stays inside the ranges."""
+    """Read through the count model (sensor.model = "mpu6500_counts"), the lab profile stays inside the ranges."""
     folder = resources.files("scenarios") / "lab"
     names = sorted(p.name for p in folder.iterdir() if p.name.endswith(".toml"))
     assert len(names) == 11
     for name in names:
         s, _ = _scenario("lab", name)
+        s = s.with_overrides(**{"sensor.model": "mpu6500_counts"})
         m = summarize(per_realization_metrics(simulate_chain(s), s.metrics))
         assert m["adc_clipped_samples"] == 0, name

@@ -123,7 +123,7 @@ def test_defaults_cite_the_thesis():
 
 
 def _run(**over):
-    s = Scenario().with_overrides(**{"simulation.realizations": 4, "simulation.duration_s": 120.0,
+    s = Scenario().with_overrides(**{"sensor.model": "mpu6500_counts", "simulation.realizations": 4, "simulation.duration_s": 120.0,
                                      "metrics.window_start_s": 60.0, "metrics.window_end_s": 120.0, **over})
     return s, simulate_chain(s)
 
@@ -151,7 +151,7 @@ def test_azimuth_error_grows_with_the_residual_tilt():
     """A sensor-frame tilt eps moves the measured high side by eps: at 2 deg inclination the azimuth error is about
     eps / sin(2 deg) (thesis eq 1.3), so the RMS azimuth error grows with residual_tilt_sigma_deg and at the thesis's
     0.0422 deg (table 4.20) dominates the accelerometer-noise floor (~0.085 deg).  Window well after the rotation."""
-    quiet = {"simulation.realizations": 16, "simulation.duration_s": 300.0, "motion.slow_turns": 0.0,
+    quiet = {"sensor.model": "mpu6500_counts", "simulation.realizations": 16, "simulation.duration_s": 300.0, "motion.slow_turns": 0.0,
              "motion.fast_turns": 0.0, "metrics.window_start_s": 150.0, "metrics.window_end_s": 300.0}
     azi = []
     for tilt in (0.0, 0.0422, 0.2):
@@ -176,7 +176,7 @@ def test_the_alignment_offset_removes_the_residual_tilt_on_the_lab_profile():
     every later reading (firmware.alignment): with a 0.2 deg residual tilt (~5.7 deg of azimuth at 2 deg
     inclination without it) the error after the rotation falls back to within the alignment's own noise of the
     untilted run; 'none' keeps the tilt; the fixed firmware does the same in integers."""
-    base = {"simulation.realizations": 8, "motion.fast_turns": 0.0, "simulation.duration_s": 400.0,
+    base = {"sensor.model": "mpu6500_counts", "simulation.realizations": 8, "motion.fast_turns": 0.0, "simulation.duration_s": 400.0,
             "metrics.window_start_s": 300.0, "metrics.window_end_s": 400.0}
 
     def azi(**over):
@@ -192,13 +192,15 @@ def test_the_alignment_offset_removes_the_residual_tilt_on_the_lab_profile():
     assert aligned_fixed == pytest.approx(aligned, abs=0.01)
 
 
-def test_alignment_key_is_checked_and_auto_follows_the_motion():
+def test_alignment_key_is_checked_and_auto_follows_the_motion_and_sensor():
     from nodesim.chain.estimator import alignment_window_s
 
-    s = Scenario()
+    s = Scenario().with_overrides(**{"sensor.model": "mpu6500_counts"})
     assert alignment_window_s(s) == pytest.approx((50.0, 250.0))  # 2 turns at 3.6 deg/s after 50 s static
     assert alignment_window_s(s.with_overrides(**{"firmware.alignment": "none"})) is None
     assert alignment_window_s(s.with_overrides(**{"motion.slow_turns": 0.5})) is None  # auto: no full turn
+    assert alignment_window_s(Scenario()) is None  # auto: the tilt-free stand-in has nothing to remove
+    assert alignment_window_s(Scenario().with_overrides(**{"firmware.alignment": "slow_rotation"})) is not None
     with pytest.raises(ScenarioError, match="firmware.alignment"):
         s.with_overrides(**{"motion.slow_turns": 0.5, "firmware.alignment": "slow_rotation"})
     with pytest.raises(ScenarioError, match="alignment"):
