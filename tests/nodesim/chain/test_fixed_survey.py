@@ -27,6 +27,7 @@ def survey_difference_rms_deg(survey_math: str = "cordic", iterations: int = 24,
     (nodesim.chain.compiled.surveys) of the same run's specific force and yaw, over full windows after the
     filter start."""
     run = simulate(LAB, realizations=realizations, **{"filter.implementation": "fixed",
+                                                      "sensor.model": "mpu6500_counts",  # tilt + alignment
                                                       "firmware.survey_math": survey_math,
                                                       "firmware.cordic_iterations": iterations})
     window = alignment_window_s(run.scenario)
