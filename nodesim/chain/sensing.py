@@ -114,8 +114,14 @@ def _tick_mean_force(accel: AccelModel, att) -> np.ndarray:
     yaw = np.asarray(att.yaw_rad, dtype=float)
     d = np.zeros_like(yaw)
     d[1:] = np.remainder(np.diff(yaw) + np.pi, 2.0 * np.pi) - np.pi
-    f = accel.specific_force(att.inclination_rad, att.azimuth_rad, yaw - 0.5 * d)
-    f[..., :2] *= np.sinc(d / (2.0 * np.pi))[:, None]  # numpy's sinc(x) = sin(pi x) / (pi x)
+    f = accel.specific_force(att.inclination_rad, att.azimuth_rad, yaw)
+    # f_xy(psi - d/2) = R_z(d/2) f_xy(psi) (the body frame turns with the yaw), times sin(d/2) / (d/2)
+    half = 0.5 * d
+    gain = np.sinc(half / np.pi)  # numpy's sinc(x) = sin(pi x) / (pi x)
+    c, s = np.cos(half) * gain, np.sin(half) * gain
+    fx, fy = f[..., 0].copy(), f[..., 1].copy()
+    f[..., 0] = c * fx - s * fy
+    f[..., 1] = s * fx + c * fy
     return f
 
 
