@@ -24,7 +24,7 @@ from nodesim.scenario.schema import Scenario
 from nodesim.sensors.chain_imu import ChainImu, SharedTruth, node_counts
 from nodesim.sensors.tick_averaged import AccelModel, GyroZModel
 from nodesim.sensors.encoder import RotaryEncoder
-from nodesim.units import DEG, G0_M_S2
+from nodesim.units import DEG, G0_M_S2, wrap_pi
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ def _tick_mean_force(accel: AccelModel, att) -> np.ndarray:
     firmware pairs this mean with its own mid-window yaw (firmware_model.node_survey.mid_yaw)."""
     yaw = np.asarray(att.yaw_rad, dtype=float)
     d = np.zeros_like(yaw)
-    d[1:] = np.remainder(np.diff(yaw) + np.pi, 2.0 * np.pi) - np.pi
+    d[1:] = wrap_pi(np.diff(yaw))
     f = accel.specific_force(att.inclination_rad, att.azimuth_rad, yaw)
     # f_xy(psi - d/2) = R_z(d/2) f_xy(psi) (the body frame turns with the yaw), times sin(d/2) / (d/2)
     half = 0.5 * d
