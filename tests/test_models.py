@@ -11,7 +11,7 @@ from firmware_model.yaw_filter import FloatYawFilter, YawFilterConfig
 from nodesim.motion.rotation import LabRotationProfile
 from nodesim.io.rundir import atomic_write_with
 from nodesim.scenario.schedules import UpdateSchedule
-from nodesim.sensors.tick_averaged import AccelModel
+from nodesim.sensors.magnetometer import specific_force_body
 from nodesim.sensors.encoder import RotaryEncoder
 from nodesim.units import DEG
 
@@ -27,8 +27,7 @@ def test_lab_profile_angles_and_timings():
 
 
 def test_north_tilt_gives_zero_azimuth_and_yaw_error_maps_to_azimuth():
-    accel = AccelModel(0.0)
-    f = accel.specific_force(5 * DEG, 0.0, np.array(0.7))
+    f = specific_force_body(5 * DEG, 0.0, np.array(0.7))
     inc, azi = resolve_survey(f, np.array(0.7))
     assert math.isclose(float(inc), 5 * DEG, abs_tol=1e-12)
     assert math.isclose(float(np.remainder(azi + 1, 2 * math.pi) - 1), 0.0, abs_tol=1e-12)
@@ -38,7 +37,7 @@ def test_north_tilt_gives_zero_azimuth_and_yaw_error_maps_to_azimuth():
 
 @given(st.floats(0.5, 179.5), st.floats(0.0, 359.9), st.floats(-1e4, 1e4))
 def test_inclination_independent_of_yaw(inc_deg, azi_deg, yaw_deg):
-    f = AccelModel(0.0).specific_force(inc_deg * DEG, azi_deg * DEG, np.array(yaw_deg * DEG))
+    f = specific_force_body(inc_deg * DEG, azi_deg * DEG, np.array(yaw_deg * DEG))
     inc, azi = resolve_survey(f, np.array(yaw_deg * DEG))
     assert math.isclose(float(inc), inc_deg * DEG, abs_tol=1e-9)
     assert abs(math.remainder(float(azi) - azi_deg * DEG, 2 * math.pi)) < 1e-9

@@ -29,6 +29,7 @@ from firmware_model.yaw_filter import (
 )
 from nodesim.motion.chain_motion import lab_profile
 from nodesim.scenario.schema import Scenario
+from nodesim.sensors.chain_imu import ChainImu
 from nodesim.units import DEG
 
 
@@ -37,7 +38,7 @@ def filter_config(scenario: Scenario) -> YawFilterConfig:
     s, f = scenario.sensor, scenario.filter
     return YawFilterConfig(
         dt_s=1.0 / scenario.chain.firmware_rate_hz,
-        arw_rad_per_sqrt_s=s.gyro_arw_deg_per_sqrt_s * DEG,
+        arw_rad_per_sqrt_s=ChainImu.from_scenario(scenario).gyro_white_arw_rad_per_sqrt_s,
         bias_instability_rad_s=s.gyro_bias_instability_deg_s * DEG,
         bias_tau_s=f.bias_tau_s,
         tuning_a=f.tuning_a,
@@ -76,7 +77,7 @@ def tick_gyro_sigma_rad_s(scenario: Scenario) -> float:
     """The per-tick gyro white-noise sigma ARW / sqrt(dt) (the transfer term of R; the chain's sensing computes
     the same double for ``NodeSignals.gyro_white_sigma_rad_s``)."""
     dt_s = 1.0 / scenario.chain.firmware_rate_hz
-    return float(scenario.sensor.gyro_arw_deg_per_sqrt_s * DEG / np.sqrt(dt_s))
+    return float(ChainImu.from_scenario(scenario).gyro_white_arw_rad_per_sqrt_s / np.sqrt(dt_s))
 
 
 def firmware_config(scenario: Scenario) -> FirmwareConfig:
@@ -101,13 +102,11 @@ def firmware_config(scenario: Scenario) -> FirmwareConfig:
 def alignment_window_s(scenario: Scenario) -> tuple[float, float] | None:
     """The alignment window [t0, t1) of ``firmware.alignment`` (thesis sec 4.2.3, :mod:`firmware_model.node_survey`):
     the lab profile's slow calibration rotation, or None (no alignment offset; ``auto``: the slow rotation where the
-    nodes read the count model, the sensor with a residual tilt, and the lab profile has at least one slow turn, so
-    that the extremes of a full turn are seen; the tilt-free stand-in skips the procedure, which would only add its
-    own residual)."""
+    lab profile has at least one slow turn, so that the extremes of a full turn are seen)."""
     m, mode = scenario.motion, scenario.firmware.alignment
     if mode == "none" or m.kind != "lab":
         return None
-    if mode == "auto" and (m.slow_turns < 1.0 or scenario.sensor.model != "mpu6500_counts"):
+    if mode == "auto" and m.slow_turns < 1.0:
         return None
     slow = next(p for p in lab_profile(scenario).phases if p.name == "slow_rotation")
     return slow.start_s, slow.end_s

@@ -358,8 +358,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         ref_yaw_rad=node.ref_yaw,
         ref_var_rad2=node.ref_var,
         present_from_s=node.timeline.present_from_s,
-        adc_clipped_samples=(None if node.sig.gyro_clipped_samples is None
-                             else node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples),
+        adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
         estimate_frames=node.frames,
     )
 

@@ -180,14 +180,10 @@ class SensorSection(_Section):
         0.0422, ge=0.0, le=10.0, description="per node and realization, residual static tilt of the sensor frame "
         "about each transverse axis after calibration (sigma): thesis table 4.20, MPU6500 turn-table "
         "calibration, standard deviation 0.0422 deg")
-    model: Literal["tick_averaged", "mpu6500_counts"] = Field(
-        "tick_averaged", description="what the chain's nodes read: 'tick_averaged' (the z-gyro and accelerometer "
-        "tick means of nodesim.sensors.tick_averaged, requantised to per-tick int16 count sums as 34 samples at "
-        "the configured ranges for the fixed firmware) or 'mpu6500_counts' (the sensor-rate MPU6500 count model "
-        "of nodesim.sensors.chain_imu: 3 axes, clipping, residual tilt; sampling, sample_rate_hz and "
-        "residual_tilt_sigma_deg apply to it only). Not yet the default: with it, the drilling runs keep the "
-        "residual tilt as azimuth error, and the lab alignment offset's own residual and the undithered "
-        "quantisation of noise-free test gyros move three validation tests (docs/firmware.md)")
+    model: Literal["mpu6500_counts"] = Field(
+        "mpu6500_counts", description="what the chain's nodes read: the sensor-rate MPU6500 count model of "
+        "nodesim.sensors.chain_imu (3 axes, int16 counts, clipping, residual tilt; the one model since issue 19 "
+        "removed the tick-averaged float stand-ins)")
 
 
 class FilterSection(_Section):
@@ -216,8 +212,7 @@ class FirmwareSection(_Section):
         "'slow_rotation' takes (max + min) / 2 of the moving-averaged transverse accelerometer axes over the lab "
         "profile's slow calibration rotation (motion.kind = 'lab', motion.slow_turns >= 1) and subtracts it from "
         "every later reading; 'none' leaves the residual tilt (sensor.residual_tilt_sigma_deg) as an error; "
-        "'auto': slow_rotation where the nodes read the count model (sensor.model = 'mpu6500_counts', the one "
-        "with a residual tilt) and the lab profile has at least one slow turn, else none (drilling: none, the "
+        "'auto': slow_rotation where the lab profile has at least one slow turn, else none (drilling: none, the "
         "drilling programme has no calibration rotation). Applies to the float and the fixed implementation")
 
 

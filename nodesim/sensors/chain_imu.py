@@ -106,6 +106,15 @@ class ChainImu:
         return self.gyro_arw_rad_per_sqrt_s * math.sqrt(self.sample_rate_hz) * self.gyro_lsb_per_rad_s
 
     @property
+    def gyro_white_arw_rad_per_sqrt_s(self) -> float:
+        """The white noise the z gyro's counts carry, as an Allan deviation of them would measure it: the ARW and
+        the rounding to 1 LSB (uniform, variance q^2 / 12 per sample, q = 1 / S_g) in quadrature,
+        N_eff = sqrt(N^2 + q^2 / (12 f_s)).  What the filter is tuned to (Q, and the rate sigma of eq 3.29's R):
+        the thesis's table V.1 values are Allan deviations of such quantised MPU6500 readings."""
+        q_rad_s = 1.0 / self.gyro_lsb_per_rad_s
+        return math.sqrt(self.gyro_arw_rad_per_sqrt_s**2 + q_rad_s**2 / (12.0 * self.sample_rate_hz))
+
+    @property
     def accel_sigma_lsb(self) -> float:
         """Per-sample accelerometer white-noise sigma: N sqrt(rate) in LSB."""
         return self.accel_density_m_s2_per_sqrt_hz * math.sqrt(self.sample_rate_hz) * self.accel_lsb_per_m_s2

@@ -192,15 +192,14 @@ def test_the_alignment_offset_removes_the_residual_tilt_on_the_lab_profile():
     assert aligned_fixed == pytest.approx(aligned, abs=0.01)
 
 
-def test_alignment_key_is_checked_and_auto_follows_the_motion_and_sensor():
+def test_alignment_key_is_checked_and_auto_follows_the_motion():
     from nodesim.chain.estimator import alignment_window_s
 
     s = Scenario().with_overrides(**{"sensor.model": "mpu6500_counts"})
     assert alignment_window_s(s) == pytest.approx((50.0, 250.0))  # 2 turns at 3.6 deg/s after 50 s static
     assert alignment_window_s(s.with_overrides(**{"firmware.alignment": "none"})) is None
     assert alignment_window_s(s.with_overrides(**{"motion.slow_turns": 0.5})) is None  # auto: no full turn
-    assert alignment_window_s(Scenario()) is None  # auto: the tilt-free stand-in has nothing to remove
-    assert alignment_window_s(Scenario().with_overrides(**{"firmware.alignment": "slow_rotation"})) is not None
+    assert alignment_window_s(s.with_overrides(**{"motion.kind": "drilling"})) is None  # auto: no slow rotation
     with pytest.raises(ScenarioError, match="firmware.alignment"):
         s.with_overrides(**{"motion.slow_turns": 0.5, "firmware.alignment": "slow_rotation"})
     with pytest.raises(ScenarioError, match="alignment"):
