@@ -31,6 +31,8 @@ Arrays are (R,): the event skeleton is shared by all realizations.
 
 from __future__ import annotations
 
+import weakref
+
 from dataclasses import replace
 from typing import Any, Protocol
 
@@ -78,7 +80,9 @@ class ChainNode:
 
     def __init__(self, net: ChainWorld, node_id: int, timeline: NodeTimeline, signals: NodeSignals,
                  scheduled: np.ndarray):
-        self.net = net
+        # a weak reference: the network holds its nodes, and a node -> network cycle would keep every R-sized array
+        # of a run alive until Python's cyclic collector ran (which counts objects, not bytes)
+        self.net = weakref.proxy(net)
         self.node_id = node_id
         self.index = node_id - 1
         self.timeline = timeline

@@ -19,7 +19,7 @@ import numpy as np
 from nodesim.motion.timelines import ChainMotion
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
-from nodesim.sensors.chain_imu import ChainImu, SharedTruth, node_counts
+from nodesim.sensors.chain_imu import ChainImu, SampleTruth, node_counts
 from nodesim.sensors.encoder import RotaryEncoder
 
 
@@ -54,6 +54,8 @@ def node_signals(
     c = node_counts(imu, motion, streams, node_index, t_s, dt_s, R, _shared_truth(scenario, imu, motion, dt_s))
     att = motion.attitude(node_index, t_s)
     n = c.samples.astype(float)
+    force = np.divide(c.accel_counts, n[None, :, None])
+    force /= imu.accel_lsb_per_m_s2  # in place: one (R, K, 3) array, not two
     return NodeSignals(
         t_s=t_s,
         gyro_rad_s=c.gyro_counts[:, :, 2] / n / imu.gyro_lsb_per_rad_s,
@@ -61,7 +63,7 @@ def node_signals(
         true_yaw_rad=att.yaw_rad,
         true_inclination_rad=att.inclination_rad,
         true_azimuth_rad=att.azimuth_rad,
-        specific_force=c.accel_counts / n[None, :, None] / imu.accel_lsb_per_m_s2,
+        specific_force=force,
         gyro_white_sigma_rad_s=imu.gyro_white_arw_rad_per_sqrt_s / np.sqrt(dt_s),
         accel_sigma_m_s2=imu.accel_density_m_s2_per_sqrt_hz / np.sqrt(dt_s),
         gyro_counts=c.gyro_counts,
@@ -72,10 +74,10 @@ def node_signals(
     )
 
 
-_LAST_TRUTH: list = [None]  # (weakref to the motion, key, SharedTruth) of the latest run
+_LAST_TRUTH: list = [None]  # (weakref to the motion, key, SampleTruth) of the latest run
 
 
-def _shared_truth(scenario: Scenario, imu: ChainImu, motion: ChainMotion, dt_s: float) -> SharedTruth | None:
+def _shared_truth(scenario: Scenario, imu: ChainImu, motion: ChainMotion, dt_s: float) -> SampleTruth | None:
     """The lab's per-sample truth, the same for every node (a rigid string), computed once per run on the grid of
     every sample a tick in [0, duration] can read (nodes whose samples fall outside compute their own)."""
     if scenario.motion.kind != "lab":
@@ -85,7 +87,7 @@ def _shared_truth(scenario: Scenario, imu: ChainImu, motion: ChainMotion, dt_s: 
     if last is not None and last[0]() is motion and last[1] == key:
         return last[2]
     rate = imu.sample_rate_hz
-    truth = SharedTruth(imu, motion, math.floor(-dt_s * rate) + 1, math.floor(scenario.simulation.duration_s * rate) + 1)
+    truth = SampleTruth(imu, motion, math.floor(-dt_s * rate) + 1, math.floor(scenario.simulation.duration_s * rate) + 1)
     _LAST_TRUTH[0] = (weakref.ref(motion), key, truth)
     return truth
 

@@ -71,7 +71,7 @@ def _double(hi, lo, inc_hi, inc_lo):
 
 
 @njit(cache=True, inline="always")
-def _normal(hi, lo, inc_hi, inc_lo):
+def normal(hi, lo, inc_hi, inc_lo):
     """(next ``standard_normal()`` draw, new hi, new lo)."""
     while True:
         hi, lo = _advance(hi, lo, inc_hi, inc_lo)
@@ -121,7 +121,7 @@ def fill_normals(states: np.ndarray, out: np.ndarray) -> None:
     for i in range(out.shape[0]):
         hi, lo, inc_hi, inc_lo = states[i, 0], states[i, 1], states[i, 2], states[i, 3]
         for j in range(out.shape[1]):
-            out[i, j], hi, lo = _normal(hi, lo, inc_hi, inc_lo)
+            out[i, j], hi, lo = normal(hi, lo, inc_hi, inc_lo)
         states[i, 0], states[i, 1] = hi, lo
 
 

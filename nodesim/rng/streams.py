@@ -186,12 +186,16 @@ class RunStreams:
         """Generator for sensor ``stream`` (one of :data:`SENSOR_STREAMS`) of ``node`` in ``realization``."""
         return self._one(self.first_realization + realization, *self._sensor_path(node, stream))
 
+    def sensor_states(self, realizations: int, node: int, stream: str) -> np.ndarray:
+        """(realizations, 4): the PCG64 states of each realization's :meth:`sensor` stream, to draw from in a
+        compiled kernel (:mod:`nodesim.rng.pcg64`; the same numbers as the generators)."""
+        return pcg64_states(self.seed, self._keys(realizations, *self._sensor_path(node, stream)))
+
     def sensor_normals(self, realizations: int, node: int, stream: str, n: int) -> np.ndarray:
         """(realizations, n): the first ``n`` ``standard_normal()`` draws of each realization's :meth:`sensor`
         stream, drawn by the compiled PCG64 kernel (ranges of realizations on threads, :mod:`nodesim.threads`)."""
         out = np.empty((realizations, n))
-        keys = self._keys(realizations, *self._sensor_path(node, stream))
-        states = pcg64_states(self.seed, keys)
+        states = self.sensor_states(realizations, node, stream)
         threads.map_chunks(lambda r0, r1: pcg64.fill_normals(states[r0:r1], out[r0:r1]), realizations)
         return out
 

@@ -40,9 +40,9 @@ from firmware_model.config import GYRO_SENS_X10
 
 from nodesim.motion.timelines import ChainMotion
 from nodesim import threads
+from nodesim.rng import pcg64
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
-from nodesim.sensors import noise
 from nodesim.sensors import tick_counts as tc
 from nodesim.units import DEG, G0_M_S2
 
@@ -187,36 +187,46 @@ def sample_truth(imu: ChainImu, motion: ChainMotion, node_index: int, j_lo: int,
     return u_gz, sensor_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad) * imu.accel_lsb_per_m_s2
 
 
-class SharedTruth:
-    """:func:`sample_truth` on a fixed sample grid shared by every node whose attitude does not depend on the node
-    (the lab's rigid string): computed once per run, sliced per node (the same values as computing it per node)."""
+class SampleTruth:
+    """:func:`sample_truth` on the sample grid j_lo <= j < j_hi, and its prefix sums, so that a tick's sum of the
+    noise-free readings is one difference (O(1) per tick, not O(samples)):
 
-    def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int):
+        sum_{first_k <= j < first_k + n_k} u_j = U[first_k + n_k] - U[first_k],   U[m] = sum_{j_lo <= j < m} u_j
+
+    (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale).  One per run where every node
+    has the same attitude (the lab's rigid string, :func:`nodesim.chain.sensing._shared_truth`), else one per node."""
+
+    def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0):
         self.j_lo, self.j_hi = j_lo, j_hi
-        self.u_gz, self.u_a = sample_truth(imu, motion, 0, j_lo, j_hi)
+        self.u_gz, self.u_a = sample_truth(imu, motion, node_index, j_lo, j_hi)
         self.umax = (np.array([0.0, 0.0, np.abs(self.u_gz).max(initial=0.0)]), np.abs(self.u_a).max(axis=0, initial=0.0))
+        self._sum_gz = np.concatenate([[0.0], np.cumsum(self.u_gz)])
+        self._sum_a = np.concatenate([np.zeros((1, 3)), np.cumsum(self.u_a, axis=0)])
 
     def covers(self, a: int, b: int) -> bool:
         return self.j_lo <= a and b <= self.j_hi
 
-    def slice(self, a: int, b: int):
-        return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo], self.umax
+    def slice(self, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        """(z-gyro (S,), accelerometer (S, 3)) truth of the samples a <= j < b (views)."""
+        return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo]
+
+    def tick_sums(self, first: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(z-gyro (K,), accelerometer (K, 3)) sums of the truth over each tick's samples first_k .. first_k + n_k - 1."""
+        a, b = first - self.j_lo, first + n - self.j_lo
+        return self._sum_gz[b] - self._sum_gz[a], np.ascontiguousarray(self._sum_a[b] - self._sum_a[a])
 
 
 def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray,
-                dt_s: float, realizations: int, truth: SharedTruth | None = None) -> NodeCounts:
+                dt_s: float, realizations: int, truth: SampleTruth | None = None) -> NodeCounts:
     """Count sums of node ``node_index`` (0-based) at its true tick times ``t_s`` (module docstring); ``truth`` the
     run's shared per-sample truth where the attitude is the same for every node."""
     R, K = realizations, t_s.size
     first, n = tc.sample_windows(t_s, dt_s, imu.sample_rate_hz)
-    S = int(n.sum())
+    j0, S = int(first[0]), int(n.sum())  # the node's samples are consecutive
     starts = np.concatenate([[0], np.cumsum(n)[:-1]]).astype(np.int64)
-    if truth is not None and truth.covers(int(first[0]), int(first[0]) + S):
-        u_gz, u_a, umax_all = truth.slice(int(first[0]), int(first[0]) + S)
-    else:
-        u_gz, u_a = sample_truth(imu, motion, node_index, int(first[0]), int(first[0]) + S)
-        umax_all = np.array([0.0, 0.0, np.abs(u_gz).max(initial=0.0)]), np.abs(u_a).max(axis=0, initial=0.0)
-    j = first[0] + np.arange(S, dtype=np.int64)  # the node's samples are consecutive
+    if truth is None or not truth.covers(j0, j0 + S):
+        truth = SampleTruth(imu, motion, j0, j0 + S, node_index)
+    u_gz, u_a = truth.slice(j0, j0 + S)
     tilt = streams.sensor_normals(R, node_index, "tilt", 2) * imu.tilt_sigma_rad
     T = tilt_matrices(tilt)
     # gyro bias (LSB): turn-on + residual after the filter start (from sample j_start on) + Gauss-Markov per tick
@@ -225,46 +235,43 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
     n_after = np.clip(first + n - j_start, 0, n)
     sg = imu.gyro_lsb_per_rad_s
     b_on, b_res = imu.turn_on_bias_rad_s * sg, imu.residual_bias_rad_s * sg
-    gm_n = 3 * K if imu.bias_instability_rad_s != 0.0 else 0
-    tick_sum = imu.sampling == "tick_sum"
-    g_normals = streams.sensor_normals(R, node_index, "gyro", gm_n + (3 * K if tick_sum else 0))
-    if gm_n:
-        gm = noise.gauss_markov_from_normals(g_normals[:, :gm_n].reshape(R, K, 3), imu.bias_instability_rad_s * sg,
-                                             imu.bias_tau_s, dt_s, axis=1)  # (R, K, 3) LSB
-    else:
-        gm = np.zeros((R, K, 3))
-    true_bias = (imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)[None, :]
-                 + gm[:, :, 2] / sg)
+    phi = math.exp(-dt_s / imu.bias_tau_s)
+    gm = (imu.bias_instability_rad_s * sg, imu.bias_instability_rad_s * sg * math.sqrt(1.0 - phi * phi), phi)
+    g_states = streams.sensor_states(R, node_index, "gyro")  # the Gauss-Markov drive, then the tick-sum normals
+    gm_z = np.empty((R, K))  # the z axis' Gauss-Markov bias [LSB]
     gain = 1.0 + imu.scale_factor_error
     g_lo, g_hi = imu.gyro_limits
     a_lo, a_hi = imu.accel_limits
-    if tick_sum:
+    if imu.sampling == "tick_sum":
         # tick sums of the noise-free readings; a bound on each tick's largest |mu| first from the largest |u| of
         # the grid, only where that bound fails from the per-tick maxima (the draws do not depend on the bound)
-        usum_gz = np.add.reduceat(u_gz, starts)
-        usum_a = np.ascontiguousarray(np.add.reduceat(u_a, starts, axis=0))
+        usum_gz, usum_a = truth.tick_sums(first, n)
         gyro, accel = np.empty((R, K, 3), np.int64), np.empty((R, K, 3), np.int64)
         g_sel, a_sel = np.empty((R, K), np.bool_), np.empty((R, K), np.bool_)
-        a_z = streams.sensor_normals(R, node_index, "accel", 3 * K)
-        sums = (usum_gz, usum_a, np.ascontiguousarray(T), gain, b_on, b_res, gm, n.astype(float), n_after.astype(float),
-                imu.gyro_sigma_lsb, imu.accel_sigma_lsb, g_lo, g_hi, a_lo, a_hi, g_normals, gm_n, a_z, gyro, accel,
-                g_sel, a_sel)
+        a_states = streams.sensor_states(R, node_index, "accel")
+        sums = (usum_gz, usum_a, np.ascontiguousarray(T), gain, b_on, b_res, *gm, n.astype(float), n_after.astype(float),
+                imu.gyro_sigma_lsb, imu.accel_sigma_lsb, g_lo, g_hi, a_lo, a_hi)
 
         def draw(umax_gz: np.ndarray, umax_a: np.ndarray) -> None:  # ranges of realizations on threads
-            threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, r0, r1), R)
-        draw(np.full(K, umax_all[0][2]), np.ascontiguousarray(np.broadcast_to(umax_all[1], (K, 3))))
+            zg, za = g_states.copy(), a_states.copy()  # a second draw reads the same normals
+            threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, zg, za, gyro, accel, g_sel, a_sel,
+                                                         gm_z, r0, r1), R)
+        draw(np.full(K, truth.umax[0][2]), np.ascontiguousarray(np.broadcast_to(truth.umax[1], (K, 3))))
         if g_sel.any() or a_sel.any():
             draw(np.maximum.reduceat(np.abs(u_gz), starts),
                  np.ascontiguousarray(np.maximum.reduceat(np.abs(u_a), starts, axis=0)))
     else:
         g_sel = a_sel = np.ones((R, K), dtype=bool)
         gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
+        threads.map_chunks(lambda r0, r1: _gauss_markov_z(g_states.copy(), *gm, gm_z, r0, r1), R)
+    true_bias = (imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)[None, :]
+                 + gm_z / sg)
 
     def gyro_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
-        after = (j[idx] >= j_start)[:, None]
+        after = (j0 + idx >= j_start)[:, None]
         u = np.zeros((idx.size, 3))
         u[:, 2] = u_gz[idx]
-        return gain * (u @ T[r].T) + b_on + gm[r, ticks] + b_res * after
+        return gain * (u @ T[r].T) + b_on + _gauss_markov_bias(g_states[r].copy(), *gm, K)[ticks] + b_res * after
 
     def accel_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
         return u_a[idx] @ T[r].T
@@ -277,9 +284,44 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
                       int(g_sel.sum() + a_sel.sum()))
 
 
+@njit(cache=True, inline="always")
+def _gauss_markov_draw(hi, lo, inc_hi, inc_lo, sigma, drive_sigma, phi, out):
+    """``out[k, i]`` (K, 3): the first-order Gauss-Markov bias of axis i at tick k, driven by the next 3 K normals
+    of the stream at state (hi, lo, inc_hi, inc_lo), normal 3 k + i: x_0 = sigma w_0, x_k = phi x_(k-1) +
+    sigma sqrt(1 - phi^2) w_k (``drive_sigma``; exact discretisation, thesis eqs 3.18-3.20; the recursion of
+    :func:`nodesim.sensors.noise.gauss_markov_from_normals`); zero, drawing nothing, when sigma is 0.  Returns
+    the new (hi, lo)."""
+    if sigma == 0.0:
+        out[:] = 0.0
+        return hi, lo
+    for k in range(out.shape[0]):
+        for i in range(3):
+            w, hi, lo = pcg64.normal(hi, lo, inc_hi, inc_lo)
+            out[k, i] = sigma * w if k == 0 else w * drive_sigma + phi * out[k - 1, i]
+    return hi, lo
+
+
+@njit(cache=True)
+def _gauss_markov_bias(state, sigma, drive_sigma, phi, K):
+    """(K, 3) :func:`_gauss_markov_draw` of one realization's "gyro" stream at PCG64 ``state`` (4,)."""
+    out = np.empty((K, 3))
+    _gauss_markov_draw(state[0], state[1], state[2], state[3], sigma, drive_sigma, phi, out)
+    return out
+
+
 @njit(cache=True, nogil=True)
-def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm, n, n_after, sigma_g, sigma_a, g_lo, g_hi,
-               a_lo, a_hi, z_g, z_g0, z_a, gyro, accel, g_sel, a_sel, r_first, r_end) -> None:
+def _gauss_markov_z(states, sigma, drive_sigma, phi, gm_z, r_first, r_end) -> None:
+    """``gm_z[r]`` (K,): the z axis of :func:`_gauss_markov_draw` for realizations ``r_first`` .. ``r_end - 1``."""
+    scratch = np.empty((gm_z.shape[1], 3))
+    for r in range(r_first, r_end):
+        _gauss_markov_draw(states[r, 0], states[r, 1], states[r, 2], states[r, 3], sigma, drive_sigma, phi, scratch)
+        gm_z[r] = scratch[:, 2]
+
+
+@njit(cache=True, nogil=True)
+def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma, gm_drive, gm_phi, n, n_after,
+               sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi, z_g, z_a, gyro, accel, g_sel, a_sel, gm_z, r_first,
+               r_end) -> None:
     """The direct tick-sum draws of every (realization r, tick k, axis i) and which ticks must be read per sample
     (:mod:`nodesim.sensors.tick_counts`), from the tick sums of the noise-free z-gyro (``usum_gz`` (K,)) and
     accelerometer (``usum_a`` (K, 3)) readings before tilt, bias and scale factor, and bounds ``umax_*`` on their
@@ -288,25 +330,39 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm, n, n_
         mean_g = gain (T_r u_g)_i + n_k (b_on + b_gm,rki) + n_after,k b_res     mean_a = (T_r u_a)_i
         bound_g = |gain| (|T_r| umax_g)_i + max(|b_on + b_gm|, |b_on + b_res + b_gm|)   bound_a = (|T_r| umax_a)_i
 
-    (u_g = (0, 0, usum_gz)); a tick is drawn directly while every axis' bound is valid (``valid_one``).  The
-    normals: ``z_g[r, z_g0 + 3 k + i]`` (the "gyro" stream after its Gauss-Markov drive), ``z_a[r, 3 k + i]``.
-    Realizations ``r_first`` .. ``r_end - 1``."""
+    (u_g = (0, 0, usum_gz)); a tick is drawn directly while every axis' bound is valid (``valid_one``); the sum
+    round_he(mean + spread_k z), spread_k = sqrt(n_k (sigma^2 + 1/12)) (:func:`~.tick_counts.draw_one`, its spread
+    once per tick).  The
+    normals z, in order 3 k + i: realization r's "gyro" stream (``z_g``, PCG64 states) after the Gauss-Markov
+    drive b_gm (:func:`_gauss_markov_draw`; its z axis into ``gm_z``) and its "accel" stream (``z_a``), advanced
+    in place.  Realizations ``r_first`` .. ``r_end - 1``."""
     K = gyro.shape[1]
+    spread_g, spread_a = np.empty(K), np.empty(K)
+    for k in range(K):
+        spread_g[k], spread_a[k] = tc.draw_spread(n[k], sigma_g), tc.draw_spread(n[k], sigma_a)
+    gm = np.empty((K, 3))
     for r in range(r_first, r_end):
+        g_hi_s, g_lo_s, g_inc_hi, g_inc_lo = z_g[r, 0], z_g[r, 1], z_g[r, 2], z_g[r, 3]
+        g_hi_s, g_lo_s = _gauss_markov_draw(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, gm_sigma, gm_drive, gm_phi, gm)
+        gm_z[r] = gm[:, 2]
+        a_hi_s, a_lo_s, a_inc_hi, a_inc_lo = z_a[r, 0], z_a[r, 1], z_a[r, 2], z_a[r, 3]
         for k in range(K):
             ok_g, ok_a = True, True
             for i in range(3):
                 t0, t1, t2 = T[r, i, 0], T[r, i, 1], T[r, i, 2]
-                g = gm[r, k, i]
+                g = gm[k, i]
+                wg, g_hi_s, g_lo_s = pcg64.normal(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo)
+                wa, a_hi_s, a_lo_s = pcg64.normal(a_hi_s, a_lo_s, a_inc_hi, a_inc_lo)
                 mean_g = gain * (t2 * usum_gz[k]) + (n[k] * (b_on + g) + n_after[k] * b_res)
                 mean_a = t0 * usum_a[k, 0] + t1 * usum_a[k, 1] + t2 * usum_a[k, 2]
-                gyro[r, k, i] = tc.draw_one(mean_g, n[k], sigma_g, z_g[r, z_g0 + 3 * k + i])
-                accel[r, k, i] = tc.draw_one(mean_a, n[k], sigma_a, z_a[r, 3 * k + i])
+                gyro[r, k, i] = tc.draw_with_spread(mean_g, spread_g[k], wg)
+                accel[r, k, i] = tc.draw_with_spread(mean_a, spread_a[k], wa)
                 b_max = max(abs(b_on + g), abs(b_on + b_res + g))
                 ok_g = ok_g and tc.valid_one(abs(gain) * (abs(t2) * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
                 bound_a = abs(t0) * umax_a[k, 0] + abs(t1) * umax_a[k, 1] + abs(t2) * umax_a[k, 2]
                 ok_a = ok_a and tc.valid_one(bound_a, sigma_a, a_lo, a_hi)
             g_sel[r, k], a_sel[r, k] = not ok_g, not ok_a
+        z_g[r, 0], z_g[r, 1], z_a[r, 0], z_a[r, 1] = g_hi_s, g_lo_s, a_hi_s, a_lo_s
 
 
 def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: int, hi: int, starts: np.ndarray,

@@ -64,9 +64,21 @@ def sample_windows(tick_t_s: np.ndarray, tick_dt_s: float, sample_rate_hz: float
 
 
 @njit(cache=True, inline="always")
+def draw_spread(n, sigma_lsb):
+    """sqrt(n (sigma^2 + 1/12)): the standard deviation of a tick sum of n readings (module docstring)."""
+    return math.sqrt(n * (sigma_lsb * sigma_lsb + 1.0 / 12.0))
+
+
+@njit(cache=True, inline="always")
+def draw_with_spread(mean_sum_lsb, spread, z):
+    """One tick sum drawn directly: round_he(sum mu + spread z), spread from :func:`draw_spread`."""
+    return np.int64(np.rint(mean_sum_lsb + spread * z))
+
+
+@njit(cache=True, inline="always")
 def draw_one(mean_sum_lsb, n, sigma_lsb, z):
     """One tick sum drawn directly: round_he(sum mu + sqrt(n (sigma^2 + 1/12)) z) (module docstring)."""
-    return np.int64(np.rint(mean_sum_lsb + math.sqrt(n * (sigma_lsb * sigma_lsb + 1.0 / 12.0)) * z))
+    return draw_with_spread(mean_sum_lsb, draw_spread(n, sigma_lsb), z)
 
 
 @njit(cache=True, inline="always")
