@@ -1,0 +1,96 @@
+"""How much memory a chain run will take, estimated from the scenario before it starts, and the guard that refuses a
+run that would exhaust the machine.
+
+A run keeps per-tick records of every node (what the tables and metrics are made from), so its peak resident
+memory grows with the node-ticks N (K + 1) (K = duration x firmware rate ticks per node) and, for the records that
+exist per realization, with R N (K + 1):
+
+    peak ~ BASE + R N (K + 1) b_rt + N (K + 1) (b_t + b_event [SimPy engine])
+
+BASE is the process with nodesim, numpy, scipy and numba loaded; b_rt the per-realization bytes of a node-tick
+(the sensor counts and their SI forms, the filter's records, the fixed firmware's words and frames; larger with
+``filter.implementation = "fixed"``); b_t the per-node-tick tables (``timeseries``) built and written after the
+run; b_event what the SimPy engine holds per node-tick (its drilling records).  The constants are measured peak
+RSS of whole ``nodesim run`` processes (``os.wait4``) on this project's 2-core machine on 2026-12-03, a least-squares fit
+over ten perf-chain sizes (1-400 nodes, 60-3600 s, 1-1000 realizations, both filter implementations; every size
+within 3 % of the fit) and the SimPy engine's drilling run (``scenarios/field/drilling_10_tubes.toml``);
+tests/nodesim/chain/test_memory_budget.py checks the estimate against the measured peak on other sizes (within a
+factor of 1.5, the goal).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from nodesim.errors import NodesimError
+from nodesim.scenario.schema import Scenario
+
+BASE_BYTES = 256 * 2**20
+"""A ``nodesim run`` process before its run (imports, compiled code)."""
+REALIZATION_TICK_BYTES = {"fixed": 213, "float": 179}
+"""Per realization and node-tick, by ``filter.implementation``."""
+TICK_BYTES = 1052
+"""Per node-tick, independent of R: the run's tables (``timeseries``) built and written."""
+EVENT_ENGINE_TICK_BYTES = 3600
+"""Per node-tick on the SimPy engine (drilling), beyond the compiled engine's."""
+
+
+@dataclass(frozen=True)
+class RunMemory:
+    """A run's estimated peak memory [bytes] and the parts it is made of."""
+
+    base_bytes: int
+    per_realization_bytes: int  # R N (K + 1) b_rt
+    per_tick_bytes: int  # N (K + 1) (b_t + b_event)
+    node_ticks: int
+    realizations: int
+
+    @property
+    def total_bytes(self) -> int:
+        return self.base_bytes + self.per_realization_bytes + self.per_tick_bytes
+
+    def __repr__(self) -> str:
+        return (f"RunMemory({self.total_bytes / 1e9:.3g} GB: {self.node_ticks:,} node-ticks x {self.realizations} "
+                f"realizations {self.per_realization_bytes / 1e9:.3g} GB + tables {self.per_tick_bytes / 1e9:.3g} GB "
+                f"+ base {self.base_bytes / 1e9:.3g} GB)")
+
+
+def estimate_run_memory(scenario: Scenario, engine: str) -> RunMemory:
+    """The peak memory of running ``scenario`` on ``engine`` ('compiled' or 'event'), module docstring."""
+    ticks = int(scenario.simulation.duration_s * scenario.chain.firmware_rate_hz) + 1
+    node_ticks = scenario.chain.nodes * ticks
+    R = scenario.simulation.realizations
+    per_tick = TICK_BYTES + (EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
+    return RunMemory(BASE_BYTES, R * node_ticks * REALIZATION_TICK_BYTES[scenario.filter.implementation],
+                     node_ticks * per_tick, node_ticks, R)
+
+
+def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None) -> RunMemory:
+    """The estimate, or a :class:`NodesimError` (one line: the estimate, what is available, the keys that bring it
+    down, the largest part first) when it exceeds ``available_bytes`` (None: not known, not checked)."""
+    need = estimate_run_memory(scenario, engine)
+    if available_bytes is None or need.total_bytes <= available_bytes:
+        return need
+    keys = ["chain.nodes", "simulation.duration_s"]
+    if need.per_realization_bytes > need.per_tick_bytes:
+        keys.insert(0, "simulation.realizations")
+    raise NodesimError(
+        f"this run would need about {need.total_bytes / 1e9:.3g} GB of memory ({need.node_ticks:,} node-ticks x "
+        f"{need.realizations} realization{'' if need.realizations == 1 else 's'}), more than the {available_bytes / 1e9:.3g} GB available: lower "
+        f"{', '.join(keys)}")
+
+
+def available_memory_bytes() -> int | None:
+    """Memory the run can use now: the kernel's MemAvailable (Linux), else the physical memory, else None."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
