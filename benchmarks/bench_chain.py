@@ -4,8 +4,12 @@
   realizations (same total work) on a 4-tube drilling run (SimPy engine: drilling runs there).
 * ``chain100_1h_overhead_vs_skeleton``: ``scenarios/perf/chain100_1h.toml`` (100 nodes, 1 simulated hour,
   lossy soil hops with the ARQ MAC, fixed-point filters) on the default engine (compiled: lab motion), the
-  full hour measured, against a bare SimPy skeleton with the same processes and events (one process per node,
-  one timeout per tick at the same times) and no work.  Goal <= 3.  The compiled engine's first call in a
+  full hour measured, against a bare SimPy skeleton of a process-per-node chain with stop-and-wait ARQ and no
+  work (:func:`skeleton`: the same node-ticks, one frame per tick to the next node; within ~10 % of
+  ../shared/tools/simpy_skeleton.py's time, docs/benchmarks.md).  Goal <= 3.
+  ``chain100_1h_end_to_end_vs_skeleton``: the whole ``nodesim run`` process of that scenario (default outputs)
+  against the whole skeleton process (``python benchmarks/bench_chain.py skeleton``), min of ``E2E_REPEAT``
+  each; goal <= 0.5.  The compiled engine's first call in a
   process loads (or, on a fresh machine, compiles) its numba code: timed apart as ``chain_compiled_warmup_s``.
   The SimPy engine's hour is EXTRAPOLATED from two short slices (first ``SLICE_S`` simulated seconds:
   wall(T2) + (3600 - T2) x the marginal cost per simulated second between T1 and T2):
@@ -62,24 +66,57 @@ def chain_drilling_batched_vs_loop() -> dict:
     return chain_batched_vs_loop(short, R, "chain", repeat_loop=1, repeat_batch=2)
 
 
+SKELETON_LOSS = 0.1
+"""Per-try frame loss of the ARQ skeleton (the perf chain's soil hops lose ~10 % of tries)."""
+
+
 def skeleton(scenario) -> int:
-    """The chain's SimPy structure without work: one process per node, one timeout per tick."""
+    """The chain's SimPy structure with no work: one process per node ticking at the node's tick times; on each
+    tick the node sends one frame to the next node with stop-and-wait ARQ (a process per frame: airtime, then an
+    ACK and a put into the next node's inbox, or the ACK timeout and another try, up to 1 + mac.max_retries tries,
+    each lost with probability SKELETON_LOSS) and one sink process per inbox takes the frames.  This is the event
+    structure of a process-per-node SimPy chain (../shared/tools/simpy_skeleton.py, the floor such a design
+    reaches), timed against it in docs/benchmarks.md.  Returns the node-ticks."""
+    import random
+
     from nodesim.chain.faults import stepped_ticks
     from nodesim.chain.network import node_clock, tick_times
 
     env = simpy.Environment()
     dt = 1.0 / scenario.chain.firmware_rate_hz
+    n = scenario.chain.nodes
+    m = scenario.mac
+    air_s = m.data_frame_bits / scenario.radio.bit_rate_bps  # the estimate frame on air
+    ack_s = m.ack_bits / scenario.radio.bit_rate_bps
+    tries = 1 + m.max_retries
+    rng = random.Random(scenario.seed)
+    inbox = [simpy.Store(env) for _ in range(n + 1)]
     count = [0]
 
-    def node(times):
+    def send(i, frame):
+        for _ in range(tries):
+            yield env.timeout(air_s)
+            if rng.random() >= SKELETON_LOSS:
+                yield env.timeout(ack_s)
+                yield inbox[i + 1].put(frame)
+                return
+            yield env.timeout(m.ack_timeout_s)
+
+    def node(i, times):
         for t in times:
             yield env.timeout(t - env.now)
             count[0] += 1
+            env.process(send(i, (i, t)))
 
-    for i in range(scenario.chain.nodes):
+    def sink(i):
+        while True:
+            yield inbox[i].get()
+
+    for i in range(n):
         t = tick_times(*node_clock(scenario, i + 1), dt, scenario.simulation.duration_s)
-        env.process(node(stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)))
-    env.run()
+        env.process(node(i, stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)))
+        env.process(sink(i + 1))
+    env.run(until=scenario.simulation.duration_s + 1.0)
     return count[0]
 
 
@@ -98,13 +135,17 @@ def chain100_1h_overhead_vs_skeleton() -> dict:
     perf = _scenario("perf", "chain100_1h.toml")
     warmup = best_time_s(lambda: simulate_chain(_sliced(perf, 60.0).with_overrides(**{"chain.nodes": 3})), repeat=1)
     run = simulate_chain(perf)
-    assert run.engine == "compiled" and run.simpy_events == skeleton(perf), "same engine and events as the skeleton"
+    assert run.engine == "compiled" and run.simpy_events == skeleton(perf), "same engine and node-ticks as the skeleton"
     wall = best_time_s(lambda: simulate_chain(perf), repeat=2)
     walls = [best_time_s(lambda: simulate_chain(_event_engine(_sliced(perf, t))), repeat=1) for t in SLICE_S]
     marginal = (walls[1] - walls[0]) / (SLICE_S[1] - SLICE_S[0])
     event_1h = walls[1] + (HOUR_S - SLICE_S[1]) * marginal
     t_skel = best_time_s(lambda: skeleton(perf), repeat=2)
+    e2e_run, e2e_skel = _end_to_end(perf)
     return {
+        "chain100_1h_end_to_end_vs_skeleton": e2e_run / e2e_skel,
+        "chain100_1h_end_to_end_run_s": e2e_run,
+        "chain100_1h_end_to_end_skeleton_s": e2e_skel,
         "chain100_1h_overhead_vs_skeleton": wall / t_skel,
         "chain100_1h_wall_s": wall,
         "chain100_skeleton_1h_s": t_skel,
@@ -115,6 +156,32 @@ def chain100_1h_overhead_vs_skeleton() -> dict:
         "chain100_1h_event_engine_overhead_vs_skeleton": event_1h / t_skel,
         "chain100_compiled_speedup_vs_event_engine": event_1h / wall,
     }
+
+
+E2E_REPEAT = 2
+
+
+def _end_to_end(perf) -> tuple[float, float]:
+    """(whole ``nodesim run`` process, whole skeleton process) wall times [s] for the perf chain, min of
+    ``E2E_REPEAT`` each, interleaved."""
+    import subprocess
+    import sys
+    import tempfile
+    import time
+    from pathlib import Path
+
+    with resources.as_file(resources.files("scenarios") / "perf" / "chain100_1h.toml") as path:
+        runs, skels = [], []
+        for _ in range(E2E_REPEAT):
+            with tempfile.TemporaryDirectory() as tmp:
+                t = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "nodesim.cli.main", "run", str(path), "--out",
+                                str(Path(tmp) / "run"), "--quiet", "--json"], check=True, stdout=subprocess.DEVNULL)
+                runs.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            subprocess.run([sys.executable, __file__, "skeleton", str(path)], check=True, stdout=subprocess.DEVNULL)
+            skels.append(time.perf_counter() - t)
+    return min(runs), min(skels)
 
 
 def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[float, float, float, float, float]:
@@ -179,3 +246,10 @@ def chain1000_24h_extrapolated() -> dict:
 
 BENCHMARKS = [chain_drilling_batched_vs_loop, chain100_1h_overhead_vs_skeleton, batched_mc_speedup,
               chain1000_24h_extrapolated]
+
+
+if __name__ == "__main__":  # the skeleton as a process of its own: python bench_chain.py skeleton SCENARIO.toml
+    import sys
+
+    if sys.argv[1:2] == ["skeleton"]:
+        print(skeleton(load_scenario(sys.argv[2])[0]))
