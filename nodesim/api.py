@@ -32,13 +32,14 @@ from nodesim.io.rundir import (
     replace_dir,
     write_csv,
     write_json,
+    write_parquet,
     write_png,
 )
 from nodesim.scenario.schema import Scenario, parse_scenario, read_scenario
 
 TABLES = ("realizations", "timeseries", "hops", "surveys", "ground_survey")  # <name>.csv, in writing order
 PLOT_FILE = "yaw_error.png"
-RUN_FILES = ("summary.json", "manifest.json", PLOT_FILE) + tuple(f"{t}.csv" for t in TABLES)
+RUN_FILES = ("summary.json", "manifest.json", PLOT_FILE, "timeseries.parquet") + tuple(f"{t}.csv" for t in TABLES)
 
 
 def simulate(
@@ -89,7 +90,7 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
     summary["engine"] = chain.engine
     summary["nodes"] = len(chain.nodes)
     summary["firmware_saturations"] = sum(sum(n.firmware_overflows.values()) for n in chain.nodes)
-    tables = run_tables(chain, per_real)
+    tables = run_tables(chain, per_real, scenario.output)
     summary["timing"] = {"simulation_s": t_sim, "wall_s": time.perf_counter() - t0}
     manifest = {
         "nodesim_version": package_version(),
@@ -107,8 +108,9 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
 class Run:
     """One simulated run: its scenario, summary, tables and plots (what a run directory holds).
 
-    Tables are pandas DataFrames with the columns of the run directory's CSV files: ``timeseries``
-    (realization 0, one row per node and tick), ``realizations`` (per-realization metrics), ``hops`` (one
+    Tables are pandas DataFrames with the columns of the run directory's files: ``timeseries``
+    (realization 0, one row per node and tick that ``[output] timeseries`` keeps; ``timeseries.parquet``, or
+    ``timeseries.csv`` with ``[output] format = "csv"``), ``realizations`` (per-realization metrics), ``hops`` (one
     row per hop), ``surveys`` and ``ground_survey`` (drilling runs; None otherwise).  ``chain`` is the
     simulation's :class:`nodesim.chain.network.ChainRun` (every per-tick array of every realization) for a
     run made here, None for a run loaded from a directory.
@@ -221,8 +223,11 @@ class Run:
 
     def _write(self, out: Path, plots: bool, t0: float) -> None:
         for name, columns in self._tables.items():
-            write_csv(out / f"{name}.csv", columns)
-        if plots:
+            if name == "timeseries" and self.scenario.output.format == "parquet":
+                write_parquet(out / "timeseries.parquet", columns, compression="zstd")
+            else:
+                write_csv(out / f"{name}.csv", columns)
+        if plots and self._tables["timeseries"]["node"].size:  # output.timeseries = "none": nothing to plot
             write_png(out / PLOT_FILE, self.plot_yaw())
         timing = self.summary["timing"]
         timing["save_s"] = time.perf_counter() - t0
@@ -258,11 +263,18 @@ def load_run(directory: str | Path) -> Run:
     tables = {}
     for name in TABLES:
         path = d / f"{name}.csv"
-        if path.is_file():
+        if name == "timeseries" and (d / "timeseries.parquet").is_file():
+            try:
+                frame = pd.read_parquet(d / "timeseries.parquet")
+            except (OSError, ValueError) as err:
+                raise NodesimError(f"{d / 'timeseries.parquet'}: unreadable Parquet ({err})") from None
+        elif path.is_file():
             frame = pd.read_csv(path, keep_default_na=False, na_values=["nan"], **exact)
-            tables[name] = {k: frame[k].to_numpy() for k in frame.columns}
+        else:
+            continue
+        tables[name] = {k: frame[k].to_numpy() for k in frame.columns}
     if "timeseries" not in tables:
-        raise NodesimError(f"{d}: not a run directory (no timeseries.csv)")
+        raise NodesimError(f"{d}: not a run directory (no timeseries.parquet or timeseries.csv)")
     return Run(scenario, summary, manifest, tables, build_motion(scenario).rotation_end_s)
 
 

@@ -70,7 +70,7 @@ def test_run_writes_the_run_directory(lab_toml, tmp_path, capsys):
         assert isinstance(summary[key], float)
     assert set(summary["timing"]) == {"simulation_s", "wall_s", "save_s"}
     files = {p.name for p in out.iterdir()}
-    assert {"manifest.json", "summary.json", "realizations.csv", "timeseries.csv", "yaw_error.png"} <= files
+    assert {"manifest.json", "summary.json", "realizations.csv", "timeseries.parquet", "yaw_error.png"} <= files
     assert not [n for n in files if n.endswith(".tmp")]
     manifest = json.loads((out / "manifest.json").read_text())
     for key in ("nodesim_version", "git_commit", "scenario_sha256", "scenario", "root_seed", "wall_time_s", "host"):

@@ -20,7 +20,7 @@ def test_same_seed_identical_summary_different_seed_differs(lab_toml, tmp_path):
     c = _summary_without_timing(tmp_path / "c" / "summary.json")
     assert a == b
     assert a != c
-    assert (tmp_path / "a" / "timeseries.csv").read_bytes() == (tmp_path / "b" / "timeseries.csv").read_bytes()
+    assert (tmp_path / "a" / "timeseries.parquet").read_bytes() == (tmp_path / "b" / "timeseries.parquet").read_bytes()
 
 
 def test_streams_do_not_depend_on_sibling_counts():

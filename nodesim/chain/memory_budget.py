@@ -9,8 +9,8 @@ exist per realization, with R N (K + 1):
 
 BASE is the process with nodesim, numpy, scipy and numba loaded; b_rt the per-realization bytes of a node-tick
 (the sensor counts and their SI forms, the filter's records, the fixed firmware's words and frames; larger with
-``filter.implementation = "fixed"``); b_t the per-node-tick tables (``timeseries``) built and written after the
-run; b_event what the SimPy engine holds per node-tick (its drilling records).  The constants are measured peak
+``filter.implementation = "fixed"``); b_t the per-node-tick tables (``timeseries``, ``[output] timeseries = "all"``)
+built and written as Parquet after the run; b_event what the SimPy engine holds per node-tick (its drilling records).  The constants are measured peak
 RSS of whole ``nodesim run`` processes (``os.wait4``) on this project's 2-core machine on 2026-12-03, a least-squares fit
 over ten perf-chain sizes (1-400 nodes, 60-3600 s, 1-1000 realizations, both filter implementations; every size
 within 3 % of the fit) and the SimPy engine's drilling run (``scenarios/field/drilling_10_tubes.toml``);
@@ -26,13 +26,13 @@ from dataclasses import dataclass
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
 
-BASE_BYTES = 256 * 2**20
-"""A ``nodesim run`` process before its run (imports, compiled code)."""
-REALIZATION_TICK_BYTES = {"fixed": 213, "float": 179}
+BASE_BYTES = 331 * 2**20
+"""A ``nodesim run`` process before its run (imports, compiled code, pyarrow)."""
+REALIZATION_TICK_BYTES = {"fixed": 211, "float": 166}
 """Per realization and node-tick, by ``filter.implementation``."""
-TICK_BYTES = 1052
-"""Per node-tick, independent of R: the run's tables (``timeseries``) built and written."""
-EVENT_ENGINE_TICK_BYTES = 3600
+TICK_BYTES = 411
+"""Per node-tick, independent of R: the run's tables (``timeseries``) built and written (Parquet)."""
+EVENT_ENGINE_TICK_BYTES = 2300
 """Per node-tick on the SimPy engine (drilling), beyond the compiled engine's."""
 
 
@@ -42,7 +42,7 @@ class RunMemory:
 
     base_bytes: int
     per_realization_bytes: int  # R N (K + 1) b_rt
-    per_tick_bytes: int  # N (K + 1) (b_t + b_event)
+    per_tick_bytes: int  # (the rows output.timeseries keeps) b_t + N (K + 1) b_event
     node_ticks: int
     realizations: int
 
@@ -61,9 +61,11 @@ def estimate_run_memory(scenario: Scenario, engine: str) -> RunMemory:
     ticks = int(scenario.simulation.duration_s * scenario.chain.firmware_rate_hz) + 1
     node_ticks = scenario.chain.nodes * ticks
     R = scenario.simulation.realizations
-    per_tick = TICK_BYTES + (EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
+    out, n = scenario.output, scenario.chain.nodes
+    kept = sum(out.keeps_node(i, n) for i in range(1, n + 1)) * ((ticks + out.tick_step - 1) // out.tick_step)
+    tables = kept * TICK_BYTES + (node_ticks * EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
     return RunMemory(BASE_BYTES, R * node_ticks * REALIZATION_TICK_BYTES[scenario.filter.implementation],
-                     node_ticks * per_tick, node_ticks, R)
+                     tables, node_ticks, R)
 
 
 def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None) -> RunMemory:
@@ -72,7 +74,7 @@ def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | Non
     need = estimate_run_memory(scenario, engine)
     if available_bytes is None or need.total_bytes <= available_bytes:
         return need
-    keys = ["chain.nodes", "simulation.duration_s"]
+    keys = ["chain.nodes", "simulation.duration_s"] + (["output.timeseries"] if scenario.output.timeseries != "none" else [])
     if need.per_realization_bytes > need.per_tick_bytes:
         keys.insert(0, "simulation.realizations")
     raise NodesimError(

@@ -1,6 +1,7 @@
 """The tables of a chain run, as columns (the CSV files of its run directory; :class:`nodesim.api.Run`).
 
-- ``timeseries.csv``: long (columnar) table, one row per node and tick of realization 0;
+- ``timeseries.parquet`` (or ``.csv``, ``[output] format``): long (columnar) table, one row per node and tick of
+  realization 0 (the nodes and ticks ``[output] timeseries`` keeps);
 - ``surveys.csv``: the survey table the ground station received, one row per realization and station
   (values are the surveying node's moving-averaged inclination/azimuth at the survey tick, thesis eqs
   1.1-1.3; sigma_A^2 = P_psipsi + sigma_f^2 / (M (g sin I)^2), sigma_I^2 = sigma_f^2 / (M g^2) with
@@ -23,12 +24,21 @@ from nodesim.chain.linkmetrics import hop_table
 from firmware_model import node_survey as survey
 from nodesim.chain.network import ChainRun
 from nodesim.chain.packets import decode_survey, survey_sigmas_rad
+from nodesim.scenario.output_section import OutputSection
 from nodesim.units import rad_to_deg, wrap_pi
 
+TIMESERIES_COLUMNS = ("node", "t_s", "running", "update", "update_age_s", "true_yaw_deg", "true_inclination_deg",
+                      "true_azimuth_deg", "yaw_est_deg", "yaw_error_deg", "yaw_sigma_deg", "bias_true_deg_s",
+                      "bias_est_deg_s", "inclination_deg", "azimuth_deg")
 
-def timeseries_columns(run: ChainRun, r: int = 0) -> dict[str, np.ndarray]:
+
+def timeseries_columns(run: ChainRun, r: int = 0, output: OutputSection = OutputSection()) -> dict[str, np.ndarray]:
+    """Realization ``r``'s per-tick records of the nodes and ticks ``output.timeseries`` keeps (one row each)."""
     cols: dict[str, list[np.ndarray]] = {}
+    step = output.tick_step
     for n in run.nodes:
+        if not output.keeps_node(n.node_id, len(run.nodes)):
+            continue
         part = {
             "node": np.full(n.t_s.size, n.node_id),
             "t_s": n.t_s,
@@ -47,7 +57,9 @@ def timeseries_columns(run: ChainRun, r: int = 0) -> dict[str, np.ndarray]:
             "azimuth_deg": rad_to_deg(n.azimuth_rad[r]),
         }
         for key, value in part.items():
-            cols.setdefault(key, []).append(np.asarray(value))
+            cols.setdefault(key, []).append(np.asarray(value)[::step])
+    if not cols:  # output.timeseries = "none": the columns, no rows
+        return {k: np.zeros(0) for k in TIMESERIES_COLUMNS}
     return {k: np.concatenate(v) for k, v in cols.items()}
 
 
@@ -97,12 +109,14 @@ def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str,
     }
 
 
-def run_tables(run: ChainRun, per_realization: dict[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
-    """Every table of a run directory, by name (the CSV file's stem), in the order they are written."""
+def run_tables(run: ChainRun, per_realization: dict[str, np.ndarray],
+               output: OutputSection = OutputSection()) -> dict[str, dict[str, np.ndarray]]:
+    """Every table of a run directory, by name (the file's stem), in the order they are written; the timeseries
+    as ``output`` chooses."""
     R = next(iter(per_realization.values())).size
     tables = {
         "realizations": {"realization": np.arange(R), **per_realization},
-        "timeseries": timeseries_columns(run),
+        "timeseries": timeseries_columns(run, output=output),
         "hops": hop_table(run),
     }
     if run.motion.stops:

@@ -23,6 +23,8 @@ def register(sub) -> None:
     p.add_argument("--record", type=Path, default=None, help="also write realization 0 as a replay log (.csv or .parquet; nodesim replay reads it)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--all", action="store_true", help="print every summary key (default: the headline keys and the bottom node)")
+    p.add_argument("--csv", action="store_true", help="write timeseries.csv instead of timeseries.parquet "
+                   "(as [output] format = \"csv\")")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown only on a terminal anyway)")
     p.set_defaults(func=run)
 
@@ -38,6 +40,8 @@ def run(args) -> int:
         overrides["seed"] = args.seed
     if args.realizations is not None:
         overrides["simulation.realizations"] = args.realizations
+    if args.csv:
+        overrides["output.format"] = "csv"
     if overrides:
         scenario = scenario.with_overrides(**overrides)
     if args.dry_run:

@@ -208,6 +208,19 @@ def write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
     atomic_write_bytes(path, buf.getvalue().encode())
 
 
+def write_parquet(path: Path, data, compression: str = "snappy") -> None:
+    """Write a DataFrame or equal-length columns (dict of arrays) as one Parquet file, atomically."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    if isinstance(data, dict):
+        table = pa.table({k: np.asarray(v) for k, v in data.items()})
+    else:
+        table = pa.Table.from_pandas(data, preserve_index=False)
+    atomic_write_with(path, lambda p: pq.write_table(table, p, compression=compression))
+
+
 def git_commit(start: Path | None = None) -> str | None:
     """The git commit of the source tree, if it is a checkout; None otherwise."""
     here = Path(start or Path(__file__).resolve().parent)

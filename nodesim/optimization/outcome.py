@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from nodesim.errors import NodesimError
-from nodesim.io.rundir import atomic_write_with, write_json
+from nodesim.io.rundir import write_json, write_parquet
 from nodesim.optimization.problem import Problem
 
 TRIALS = "trials.parquet"
@@ -236,14 +236,6 @@ class Study:
         }
 
 
-def _write_parquet(path: Path, df: pd.DataFrame) -> None:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    table = pa.Table.from_pandas(df, preserve_index=False)
-    atomic_write_with(path, lambda p: pq.write_table(table, p))
-
-
 def finish(problem: Problem, directory: Path, executor=None, run_fn=None, validate_run: bool = True,
            payload: dict | None = None) -> Study:
     """Build and write the tables and the recommendation of the study in ``directory``."""
@@ -253,8 +245,8 @@ def finish(problem: Problem, directory: Path, executor=None, run_fn=None, valida
     study = open_study(problem, directory, create=False)
     trials = trials_frame(study, problem)
     pareto = pareto_frame(trials, problem)
-    _write_parquet(directory / TRIALS, trials)
-    _write_parquet(directory / PARETO, pareto)
+    write_parquet(directory / TRIALS, trials)
+    write_parquet(directory / PARETO, pareto)
     best = ranked(trials, problem, problem.recommend)
     recommended = None
     validation = None

@@ -5,7 +5,7 @@ the simulation's internals:
 
 - headline metrics from ``summary.json`` (flattened; timing shown apart), and the per-node ones
   (``node<k>_<metric>``) plotted along the chain when the run has more than one node;
-- yaw error and bias estimate per node against time, from ``timeseries.csv`` (a ``node`` column means one
+- yaw error and bias estimate per node against time, from ``timeseries.parquet`` or ``timeseries.csv`` (a ``node`` column means one
   line per node; without it the run has one node);
 - survey stations with their horizontal uncertainty ellipses, from ``ground_survey.csv`` (the
   ``nodesim uncertainty`` CSV form) through :mod:`nodesim.ground` with the tool model ``tool``;
@@ -49,6 +49,13 @@ def _read_csv(path: Path) -> pd.DataFrame | None:
         raise NodesimError(f"{path}: unreadable CSV ({err})") from None
 
 
+def _read_parquet(path: Path) -> pd.DataFrame:
+    try:
+        return pd.read_parquet(path)
+    except (OSError, ValueError) as err:
+        raise NodesimError(f"{path}: unreadable Parquet ({err})") from None
+
+
 def _summary_section(page: Page, summary: dict) -> None:
     page.heading("Headline metrics")
     flat = select_metrics({k: v for k, v in summary.items()}, ())
@@ -87,7 +94,7 @@ def _yaw_section(page: Page, ts: pd.DataFrame | None) -> None:
     page.heading("Yaw error and bias estimate per node")
     need = {"t_s", "yaw_error_deg", "bias_est_deg_s"}
     if ts is None or not need <= set(ts.columns):
-        page.para(f"no time series with {sorted(need)} in this run (timeseries.csv)", note=True)
+        page.para(f"no time series with {sorted(need)} in this run (timeseries)", note=True)
         return
     groups = list(ts.groupby("node")) if "node" in ts.columns else [(1, ts)]
     fig = Figure(figsize=(10, 6.5))
@@ -177,7 +184,8 @@ def run_page(run_dir: Path, tool: str = "mpu6500", **_ignored) -> tuple[Page, di
     page.table(["run", "value"], [["directory", str(run_dir)]] + ident)
     _summary_section(page, summary)
     _chain_section(page, summary)
-    _yaw_section(page, _read_csv(run_dir / "timeseries.csv"))
+    parquet = run_dir / "timeseries.parquet"
+    _yaw_section(page, _read_parquet(parquet) if parquet.exists() else _read_csv(run_dir / "timeseries.csv"))
     _survey_section(page, run_dir, tool)
     _link_section(page, run_dir)
     pngs = sorted(run_dir.glob("*.png"))

@@ -19,6 +19,7 @@ from pydantic import Field, ValidationError, model_validator
 
 from nodesim.errors import ScenarioError
 from nodesim.scenario.section_base import _Section
+from nodesim.scenario.output_section import OutputSection
 from nodesim.scenario.radio_sections import FaultsSection, MacSection, RadioSection, check_indices
 
 
@@ -291,6 +292,7 @@ class Scenario(_Section):
     radio: RadioSection = RadioSection()
     mac: MacSection = MacSection()
     faults: FaultsSection = FaultsSection()
+    output: OutputSection = OutputSection()
 
     @model_validator(mode="after")
     def _metrics_inside_run(self) -> "Scenario":

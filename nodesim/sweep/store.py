@@ -13,7 +13,7 @@ e.g. ``schedule.timeout_s``), one float column per kept metric, ``status`` ("ok"
 are timing/placement, outside the determinism guarantee; every other column is identical whichever executor
 ran the campaign.
 
-Every file is written to a temporary name and renamed into place (:func:`nodesim.io.rundir.atomic_write_with`),
+Every file is written to a temporary name and renamed into place (:func:`nodesim.io.rundir.write_parquet`),
 so a campaign killed at any moment leaves only complete part files.  Each finished run is flushed at once
 (one part file per batch of runs finished together), so a kill loses at most the runs in flight.  Part files
 are merged into ``results.parquet`` every ``CONSOLIDATE_EVERY`` parts and at the end.  ``--resume`` reads
@@ -30,10 +30,9 @@ from typing import Iterable
 
 import pandas as pd
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from nodesim.errors import NodesimError
-from nodesim.io.rundir import atomic_write_with
+from nodesim.io.rundir import write_parquet
 from nodesim.sweep.tasks import RunRecord
 
 RESULTS = "results.parquet"
@@ -65,11 +64,6 @@ def records_frame(records: Iterable[RunRecord], param_keys: list[str]) -> pd.Dat
     return df[ID_COLUMNS + [k for k in param_keys if k in df.columns] + metrics + STATUS_COLUMNS]
 
 
-def _write_parquet(path: Path, df: pd.DataFrame) -> None:
-    table = pa.Table.from_pandas(df, preserve_index=False)
-    atomic_write_with(path, lambda p: pq.write_table(table, p))
-
-
 class CampaignStore:
     """Append finished runs as part files; consolidate into ``results.parquet``."""
 
@@ -91,7 +85,7 @@ class CampaignStore:
         """Write ``records`` as one new part file (atomic); consolidate when parts pile up."""
         if not records:
             return
-        _write_parquet(self.parts_dir / f"part-{self._next:07d}.parquet", records_frame(records, self.param_keys))
+        write_parquet(self.parts_dir / f"part-{self._next:07d}.parquet", records_frame(records, self.param_keys))
         self._next += 1
         if len(self._part_files()) >= CONSOLIDATE_EVERY:
             self.consolidate()
@@ -121,7 +115,7 @@ class CampaignStore:
         parts = self._part_files()
         df = self.load()
         if len(df) or not (self.dir / RESULTS).exists():
-            _write_parquet(self.dir / RESULTS, df)
+            write_parquet(self.dir / RESULTS, df)
         for p in parts:
             p.unlink()
         return df

@@ -79,11 +79,11 @@ def test_save_writes_the_run_directory_and_load_run_reads_it_back_equal(drilling
     out = drilling_run.save(tmp_path / "run")
     names = sorted(p.name for p in out.iterdir())
     assert names == ["ground_survey.csv", "hops.csv", "manifest.json", "realizations.csv", "summary.json",
-                     "surveys.csv", "timeseries.csv", "yaw_error.png"]
+                     "surveys.csv", "timeseries.parquet", "yaw_error.png"]
     loaded = nodesim.load_run(out)
     assert loaded == drilling_run
     for name in ("timeseries", "realizations", "hops", "surveys", "ground_survey"):
-        on_disk = pd.read_csv(out / f"{name}.csv")
+        on_disk = pd.read_parquet(out / "timeseries.parquet") if name == "timeseries" else pd.read_csv(out / f"{name}.csv")
         assert list(on_disk.columns) == list(getattr(drilling_run, name).columns)
         pd.testing.assert_frame_equal(getattr(loaded, name), getattr(drilling_run, name), check_dtype=False)
     assert loaded.chain is None and drilling_run.chain is not None
@@ -128,7 +128,7 @@ def test_nodesim_run_is_simulate_then_save(tmp_path, capsys):
     assert main(["run", str(LAB), "--out", str(tmp_path / "cli"), "--seed", "9", "--quiet"]) == 0
     capsys.readouterr()
     api = nodesim.simulate(LAB, seed=9).save(tmp_path / "api")
-    for name in ("timeseries.csv", "realizations.csv", "hops.csv", "yaw_error.png"):
+    for name in ("timeseries.parquet", "realizations.csv", "hops.csv", "yaw_error.png"):
         assert (tmp_path / "cli" / name).read_bytes() == (api / name).read_bytes(), name
     cli_run = nodesim.load_run(tmp_path / "cli")
     assert cli_run.manifest["scenario_sha256"] == nodesim.load_run(api).manifest["scenario_sha256"]

@@ -114,7 +114,7 @@ def test_ten_tube_field_scenario_end_to_end(tmp_path, capsys):
         assert abs(float(r["inclination_deg"]) - inc) < 0.05 + 4 * tilt_deg
         lever = 4 * tilt_deg / np.sin(np.radians(inc))
         assert abs(float(r["azimuth_deg"]) - float(r["true_azimuth_deg"])) < 1.0 + lever
-    assert {"timeseries.csv", "yaw_error.png", "realizations.csv", "summary.json"} <= {p.name for p in out.iterdir()}
+    assert {"timeseries.parquet", "yaw_error.png", "realizations.csv", "summary.json"} <= {p.name for p in out.iterdir()}
     # the ground station's uncertainty command reads the received surveys as they are
     assert main(["uncertainty", str(out / "ground_survey.csv"), "--tool", "mpu6500", "--json"]) == 0
     stations = json.loads(capsys.readouterr().out)["stations"]
@@ -181,7 +181,7 @@ def test_same_seed_same_run_directory_bytes(tmp_path):
     s = drilling(3, **{"simulation.realizations": 2, "chain.link_loss_probability": 0.2})
     for name in ("a", "b"):
         simulate_scenario(s, None).save(tmp_path / name, plots=False)
-    for table in ("surveys.csv", "ground_survey.csv", "timeseries.csv", "realizations.csv"):
+    for table in ("surveys.csv", "ground_survey.csv", "timeseries.parquet", "realizations.csv"):
         assert (tmp_path / "a" / table).read_bytes() == (tmp_path / "b" / table).read_bytes()
     other = simulate_scenario(s.with_overrides(seed=s.seed + 1), None)
     other.save(tmp_path / "c", plots=False)

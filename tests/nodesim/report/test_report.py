@@ -80,7 +80,7 @@ def test_run_report_embeds_every_plot_and_says_what_is_missing(run_dir):
 def test_run_report_draws_survey_ellipses_and_link_margins_when_the_run_has_them(run_dir, tmp_path):
     d = tmp_path / "rich"
     d.mkdir()
-    for f in ("summary.json", "manifest.json", "timeseries.csv"):
+    for f in ("summary.json", "manifest.json", "timeseries.parquet"):
         (d / f).write_bytes((run_dir / f).read_bytes())
     md = np.arange(0.0, 22.0, 2.0)
     write_csv(d / "ground_survey.csv", {"md_m": md, "inc_deg": np.full(md.size, 2.0), "azi_deg": np.full(md.size, 45.0),
