@@ -2,9 +2,12 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numba import njit
 
 from firmware_model.survey_resolution import circular_moving_average, resolve_survey, trailing_moving_average
-from nodesim.chain.compiled.surveys import averaged_surveys
+from nodesim.chain.compiled.surveys import _mod_two_pi, averaged_surveys
 
 
 def mid_window_yaw(yaw):
@@ -89,3 +92,14 @@ def test_the_alignment_offset_removes_a_constant_transverse_offset(points):
     before = np.abs(np.angle(np.exp(1j * (azi0[:, late] - ac[:, late])))).max()
     after = np.abs(np.angle(np.exp(1j * (azi[:, late] - ac[:, late])))).max()
     assert before > 5e-3 and after < 2e-3 * before  # the offset's 0.6 deg is gone to the sinc of the arc
+
+
+_MOD_TWO_PI = njit(lambda v: _mod_two_pi(v))
+
+
+@settings(max_examples=500, deadline=None)
+@given(x=st.one_of(st.floats(-20.0, 20.0), st.sampled_from([0.0, -0.0, 2 * np.pi, -2 * np.pi, -1e-300, -1e-17, np.pi,
+                                                             np.nextafter(2 * np.pi, 0), np.nextafter(-2 * np.pi, 0)])))
+def test_mod_two_pi_is_numpys_remainder_bit_for_bit(x):
+    got = _MOD_TWO_PI(x)
+    assert np.float64(got).tobytes() == np.float64(np.remainder(x, 2 * np.pi)).tobytes()
