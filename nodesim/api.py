@@ -31,6 +31,7 @@ from nodesim.io.rundir import (
     package_version,
     replace_dir,
     write_csv,
+    read_parquet,
     write_json,
     write_parquet,
     write_png,
@@ -264,10 +265,7 @@ def load_run(directory: str | Path) -> Run:
     for name in TABLES:
         path = d / f"{name}.csv"
         if name == "timeseries" and (d / "timeseries.parquet").is_file():
-            try:
-                frame = pd.read_parquet(d / "timeseries.parquet")
-            except (OSError, ValueError) as err:
-                raise NodesimError(f"{d / 'timeseries.parquet'}: unreadable Parquet ({err})") from None
+            frame = read_parquet(d / "timeseries.parquet")
         elif path.is_file():
             frame = pd.read_csv(path, keep_default_na=False, na_values=["nan"], **exact)
         else:

@@ -221,6 +221,16 @@ def write_parquet(path: Path, data, compression: str = "snappy") -> None:
     atomic_write_with(path, lambda p: pq.write_table(table, p, compression=compression))
 
 
+def read_parquet(path: Path):
+    """A Parquet file as a DataFrame; an unreadable one is a :class:`NodesimError` naming it."""
+    import pandas as pd
+
+    try:
+        return pd.read_parquet(path)
+    except (OSError, ValueError) as err:
+        raise NodesimError(f"{path}: unreadable Parquet ({err})") from None
+
+
 def git_commit(start: Path | None = None) -> str | None:
     """The git commit of the source tree, if it is a checkout; None otherwise."""
     here = Path(start or Path(__file__).resolve().parent)

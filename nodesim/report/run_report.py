@@ -25,6 +25,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from nodesim.errors import NodesimError
+from nodesim.io.rundir import read_parquet
 from nodesim.report.html import Page
 from nodesim.sweep.spec import select_metrics
 
@@ -47,13 +48,6 @@ def _read_csv(path: Path) -> pd.DataFrame | None:
         return pd.read_csv(path)
     except (OSError, ValueError) as err:
         raise NodesimError(f"{path}: unreadable CSV ({err})") from None
-
-
-def _read_parquet(path: Path) -> pd.DataFrame:
-    try:
-        return pd.read_parquet(path)
-    except (OSError, ValueError) as err:
-        raise NodesimError(f"{path}: unreadable Parquet ({err})") from None
 
 
 def _summary_section(page: Page, summary: dict) -> None:
@@ -185,7 +179,7 @@ def run_page(run_dir: Path, tool: str = "mpu6500", **_ignored) -> tuple[Page, di
     _summary_section(page, summary)
     _chain_section(page, summary)
     parquet = run_dir / "timeseries.parquet"
-    _yaw_section(page, _read_parquet(parquet) if parquet.exists() else _read_csv(run_dir / "timeseries.csv"))
+    _yaw_section(page, read_parquet(parquet) if parquet.exists() else _read_csv(run_dir / "timeseries.csv"))
     _survey_section(page, run_dir, tool)
     _link_section(page, run_dir)
     pngs = sorted(run_dir.glob("*.png"))
