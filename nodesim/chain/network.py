@@ -184,6 +184,7 @@ class Network:
             offset, drift = node_clock(scenario, i + 1)
             t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
             t = faults.stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
+            t = t[t >= self.motion.timelines[i].present_from_s]  # a node not yet in its tube does not tick
             if t.size == 0:
                 steps = [(x.at_s, x.step_s) for x in scenario.faults.clock_step if x.node == i + 1]
                 raise NodesimError(
@@ -218,7 +219,6 @@ class Network:
     def send_survey(self, packet: SurveyPacket, ready_s) -> None:
         """Hop by hop from the surveying node to the top node and on to the ground station, resolved by the
         MAC at once (arrival per realization; a dead node on the way loses it)."""
-        self.sent.append(packet)
         t = self.env.now
         top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
         at = np.broadcast_to(np.asarray(ready_s, dtype=float), (self.R,)).copy()  # after the node's own exchange
@@ -232,7 +232,13 @@ class Network:
             hops.append((link, tr))
             valid = tr.delivered
             at = np.where(valid, tr.arrival_s, np.nan)
-        self.ground.append(GroundSurvey(packet.lost_where(~valid), at))
+        self.received_survey(packet, at, hops)
+
+    def received_survey(self, packet: SurveyPacket, arrival_s: np.ndarray, hops: list) -> None:
+        """Record a survey sent and what reached the ground station: ``arrival_s`` (R,), NaN where it was lost;
+        ``hops``: (link, transfer) per hop, whose bit errors its frame's bytes get (:meth:`_survey_frames`)."""
+        self.sent.append(packet)
+        self.ground.append(GroundSurvey(packet.lost_where(np.isnan(arrival_s)), arrival_s))
         self._survey_hops.append(hops)
 
     def run(self, progress: Callable[[float], None] | None = None, steps: int = 200) -> ChainRun:

@@ -34,6 +34,8 @@ from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from nodesim.chain import bit_errors
 from nodesim.chain.compiled import filters, float_kernel, frame_pass
+from nodesim.chain.compiled import tick_plan as tp
+from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
@@ -44,8 +46,9 @@ INBOX_SLOTS = 8
 
 def unsupported(scenario: Scenario) -> str | None:
     """Why the compiled engine cannot run ``scenario`` (None when it can)."""
-    if scenario.motion.kind != "lab":
-        return "motion.kind = 'drilling' (tube insertions and survey stops) needs simulation.engine = 'event'"
+    if scenario.motion.kind == "drilling" and scenario.mac.bit_errors:
+        return ("mac.bit_errors = true with motion.kind = 'drilling' (bit errors in the survey frames going up) needs "
+                "simulation.engine = 'event'")
     return None
 
 
@@ -62,16 +65,18 @@ def choose_engine(scenario: Scenario) -> str:
 
 class _Links:
     """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback; built, with
-    its draws, only if phase 1 needs it), as realization-major arrays (:mod:`.mac_kernel`)."""
+    its draws, only if phase 1 needs it), up links 2N + h (hop h, surveys), as realization-major arrays
+    (:mod:`.mac_kernel`).  ``hops_up[h]``: how many surveys cross hop h (what its draws are sized for)."""
 
-    def __init__(self, net):
+    def __init__(self, net, hops_up: np.ndarray):
         N, R = net.n_nodes, net.R
         self.net = net
-        self.links: list = list(net.down_links) + [None] * N
+        self.links: list = list(net.down_links) + [None] * N + list(net.up_links)
         channels = [x.channel for x in net.down_links] + [
-            net._skips[i + 1] if node.fallback.enabled else None for i, node in enumerate(net.nodes)]
-        bursts = [x.burst for x in net.down_links] + [None] * N
-        outages = [x.outages for x in net.down_links] + [()] * N
+            net._skips[i + 1] if node.fallback.enabled else None for i, node in enumerate(net.nodes)] + [
+            x.channel for x in net.up_links]
+        bursts = [x.burst for x in net.down_links] + [None] * N + [x.burst for x in net.up_links]
+        outages = [x.outages for x in net.down_links] + [()] * N + [x.outages for x in net.up_links]
         live = [ch for ch in channels if ch is not None]
         G = max(ch.per_data_table.shape[0] for ch in live)
         O = max([len(o) for o in outages] + [1])
@@ -99,13 +104,18 @@ class _Links:
         self.sizes = np.zeros((R, L), dtype=np.int64)
         m = net.scenario.mac
         attempts = 1 + m.max_retries if m.enabled else 1
-        for h in range(N):  # what a hop is expected to use, with headroom (more is drawn on demand)
-            ch = channels[h]
-            per_attempt = (2 if m.enabled else 1) + (2 if bursts[h] is not None else 0)
-            frames = net.nodes[max(h - 1, 0)].sig.t_s.size * (2 if h == 0 else 1)
+
+        def expected(i: int, frames: int) -> int:  # what a link is expected to use, with headroom (more on demand)
+            ch = channels[i]
+            per_attempt = (2 if m.enabled else 1) + (2 if bursts[i] is not None else 0)
             p_ok = float(np.mean((1.0 - ch.per_data_table) * (1.0 - ch.per_ack_table)))
             mean_attempts = min(attempts, 1.2 / max(p_ok, 1.0 / attempts) + 0.05)
-            self.sizes[:, h] = int(math.ceil(frames * per_attempt * mean_attempts)) + 64
+            return int(math.ceil(frames * per_attempt * mean_attempts)) + 64
+
+        for h in range(N):
+            self.sizes[:, h] = expected(h, net.nodes[max(h - 1, 0)].sig.t_s.size * (2 if h == 0 else 1))
+            if hops_up[h]:
+                self.sizes[:, 2 * N + h] = expected(2 * N + h, int(hops_up[h]))
         self.buffer = np.empty(0)
         self.start = np.zeros((R, L), dtype=np.int64)
         self.states: list[np.ndarray | None] = [None] * L
@@ -122,7 +132,8 @@ class _Links:
         keys = np.zeros((R, L) if on else (1, 1), np.uint64)
         has_bytes = np.zeros(L, dtype=bool)
         for i, ch in enumerate(channels):
-            if not on or ch is None or i == 0:  # link 0 carries the encoder exchange (no frame bytes)
+            if not on or ch is None or i == 0 or i >= 2 * N:  # link 0: the encoder exchange (no frame bytes); up
+                # links carry survey frames, which mac.bit_errors does not reach on this engine (``unsupported``)
                 continue
             g = ch.ber_table.shape[0]
             ber[:, i, :g], per_pre[:, i, :g] = ch.ber_table.T, ch.per_preamble_table.T
@@ -168,7 +179,10 @@ class _Links:
         """Link ``i``'s PCG64 states (R, 4), where its draws stand (built on first use)."""
         if self.states[i] is None:
             streams, N, R = self.net._streams, self.net.n_nodes, self.net.R
-            self.states[i] = streams.link_states(R, i) if i < N else streams.skip_link_states(R, i - N + 1)
+            if N <= i < 2 * N:
+                self.states[i] = streams.skip_link_states(R, i - N + 1)
+            else:  # down link h = h, up link h = 2N + h: the network's links N + h (RunStreams)
+                self.states[i] = streams.link_states(R, i if i < N else i - N)
         return self.states[i]
 
     def more(self, i: int, r: int, done_fraction: float) -> None:
@@ -198,21 +212,48 @@ class _Links:
                 x.stats.crc_rejected, x.stats.undetected = self.bits[8][:, i].copy(), self.bits[9][:, i].copy()
 
 
-def _resolve(net, links: _Links):
+def _survey_plan(net, T: np.ndarray, plan: np.ndarray) -> tuple:
+    """The surveys the nodes send (:class:`nodesim.motion.timelines.SurveyStop`), as :meth:`ChainNode.process` sends
+    them: at a node's first tick inside [t_survey, end) of its stop where it is not in its static window, up to the
+    top node present then.  (stops, first (N,), stop (N,), tick (S,), top (S,)), sorted by node then tick."""
+    N = net.n_nodes
+    rows = []  # (node index, tick, top index, stop)
+    present = np.array([tl.present_from_s for tl in net.motion.timelines])
+    for n, node in enumerate(net.nodes):
+        t = T[:, n]
+        for stop in node.stops:
+            k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (plan[:, n] != tp.STATIC)
+                               & (plan[:, n] != tp.ABSENT))
+            if k.size:
+                top = int(np.flatnonzero(present <= t[k[0]])[0])
+                rows.append((n, int(k[0]), top, stop))
+    rows.sort(key=lambda x: (x[0], x[1]))
+    nodes = np.array([x[0] for x in rows], dtype=np.int64)
+    first = np.searchsorted(nodes, np.arange(N), side="left").astype(np.int64)
+    last = np.searchsorted(nodes, np.arange(N), side="right").astype(np.int64)
+    ticks = np.array([x[1] for x in rows], dtype=np.int64)
+    tops = np.array([x[2] for x in rows], dtype=np.int64)
+    return [(x[0], x[1], x[3]) for x in rows], first, last, ticks, tops
+
+
+def _hops_up(N: int, senders: list, tops: np.ndarray) -> np.ndarray:
+    """(N,) how many surveys cross each up hop h (hops top .. sender of every survey)."""
+    d = np.zeros(N + 1, dtype=np.int64)
+    for (n, _, _), top in zip(senders, tops):
+        d[top] += 1
+        d[n + 1] -= 1
+    return np.cumsum(d[:N])
+
+
+def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray, survey_plan: tuple):
     """Phase 1 (:mod:`.events`) over ranges of realizations on threads (:mod:`nodesim.threads`), started again
     with more draws or inbox slots until every range completes."""
     N, R = net.n_nodes, net.R
     c, m = net.scenario.chain, net.scenario.mac
-    K = np.array([n.sig.t_s.size for n in net.nodes], dtype=np.int64)
     Kmax = int(K.max())
-    T = np.full((Kmax, N), np.inf)  # tick-major: events in time order touch neighbouring memory
-    for i, node in enumerate(net.nodes):
-        T[:K[i], i] = node.sig.t_s
     dead_at = np.array([n.dead_at_s for n in net.nodes], dtype=float)
-    filter_start = np.array([n.timeline.filter_start_s for n in net.nodes], dtype=float)
     order = ev.event_order(T, K, dead_at)
-    scheduled = np.zeros(Kmax, dtype=bool)
-    scheduled[:K[0]] = net.nodes[0].scheduled
+    _, s_first, s_stop, s_tick, s_top = survey_plan
     fb = net.scenario.faults
     fallback = (np.array([n.fallback.enabled for n in net.nodes]), np.arange(N, 2 * N, dtype=np.int64),
                 fb.fallback_after_failures, fb.fallback_min_margin_db)
@@ -232,22 +273,25 @@ def _resolve(net, links: _Links):
         for a in bits[8:10]:
             a[:] = 0
         bits[10][:] = -1
+        asks = bool((plan == tp.ASK).any())
         out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
-               np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32), np.full((R, Kmax), np.nan),
-               np.zeros((R, N), np.int64), np.zeros((R, N), np.int64))
+               np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32),
+               np.full((R, N, Kmax) if asks else (1, 1, 1), np.nan), np.zeros((R, N), np.int64),
+               np.zeros((R, N), np.int64))
+        surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64))
         draws, last_seq, streak = links.draws(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
 
         def run(r0: int, r1: int):  # called within this pass of the loop: the arrays above
             need = np.zeros(3, np.int64)
             scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
-            status = ev.run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, links.chan,
-                                   links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
-                                   out, need, np.zeros(N, dtype=bool), r0, r1)
+            status = ev.run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, links.chan, links.margin,
+                                   draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak, out, need, np.zeros(N, np.int64),
+                                   r0, r1)
             return status, need
 
         ended = threads.map_chunks(run, R)
         if all(status == ev.DONE for status, _ in ended):
-            return order[0].size, out, radio, stats
+            return order[0].size, out, radio, stats, surveys[4:]
         if any(status == ev.INBOX_FULL for status, _ in ended):
             slots *= 2
         short: dict[int, tuple[int, int]] = {}  # link -> (lane, event) of the range that ran out soonest
@@ -259,7 +303,19 @@ def _resolve(net, links: _Links):
             links.more(link, lane, (event + 1) / order[0].size)
 
 
-def _run_node(net, n: int, out, bits) -> None:
+def _encoder_reads(net, n: int, t: np.ndarray, codes: np.ndarray, enc_t_read: np.ndarray):
+    """Node index ``n``'s encoder replies at its ``ASK`` ticks: (those ticks, t_read (R, A), yaw (R, A), rate (R, A)),
+    read at the request's arrival (at the tick itself where the request was lost)."""
+    ask = np.flatnonzero(codes == tp.ASK)
+    if not ask.size:
+        return ask, None, None, None
+    t_read = enc_t_read[:, n, ask]
+    t_read = np.where(np.isnan(t_read), t[ask], t_read)
+    yaw, rate = net.encoder.read_many(t_read)
+    return ask, t_read, yaw, rate
+
+
+def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     """Phase 2 for node index ``n`` (module docstring); writes the node's records."""
     from nodesim.chain.estimator import new_filter
 
@@ -268,41 +324,38 @@ def _run_node(net, n: int, out, bits) -> None:
     t, R = sig.t_s, net.R
     K = t.size
     k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
-    n_static = int(np.searchsorted(t[:k_end], node.timeline.filter_start_s, side="left"))
+    starts = np.flatnonzero(codes == tp.START)
     node.running[:] = running[:K, n]
     node.applied, node.age = applied[:, n, :K], age[:, n, :K]  # views of phase 1's records
     node.stale, node.duplicate = stale[:, n].copy(), dup[:, n].copy()
-    if n_static:
-        node.yaw[:, :n_static] = net.encoder.read_many(t[:n_static])[0]
-    if n_static >= k_end:
+    static = codes == tp.STATIC
+    if static.any():
+        node.yaw[:, static] = net.encoder.read_many(t[static])[0]
+    if not starts.size:
         return
+    n_static = int(starts[0])
     if net.scenario.filter.implementation == "fixed":
-        _run_node_firmware(net, n, out, k_end, n_static, bits)
+        _run_node_firmware(net, n, out, k_end, codes, bits)
         return
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
-    fixed = net.scenario.filter.implementation == "fixed"
-    module = fixed_kernel if fixed else float_kernel
-    state, params = module.lane_states(node.kf), module.kernel_params(node.kf)
+    state, params = float_kernel.lane_states(node.kf), float_kernel.kernel_params(node.kf)
     # run_node takes a float and an integer filter's arrays (one compiled signature); the unused one is a stand-in
-    fstate, fparams = (np.zeros((1, 5)), np.zeros(7)) if fixed else (state, params)
-    istate, iparams = (state, params) if fixed else (np.zeros((1, 5), np.int64), np.zeros(1, np.int64))
+    fstate, fparams, istate, iparams = state, params, np.zeros((1, 5), np.int64), np.zeros(1, np.int64)
     enc_ref = np.zeros((R, K))
-    if n == 0:
-        t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
-        yaw_enc, rate_enc = net.encoder.read_many(t_read)
-        enc_ref = yaw_enc - rate_enc * (t_read - t)
+    ask, t_read, yaw_enc, rate_enc = _encoder_reads(net, n, t, codes, enc_t_read)
+    if ask.size:
+        enc_ref[:, ask] = yaw_enc - rate_enc * (t_read - t[ask])
     src = src_node[:, n, :K]
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
-    c = net.scenario.chain
     up = (tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)  # per range of realizations, summed below
-        filters.run_node(fixed, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end,
-                         n == 0, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K], *up,
+        filters.run_node(False, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end,
+                         codes, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K], *up,
                          net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                          node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
         return counts
@@ -332,23 +385,22 @@ def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
     return tuple(frames)
 
 
-def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> None:
+def _run_node_firmware(net, n: int, out, k_end: int, codes: np.ndarray, bits) -> None:
     """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`)."""
     node, sig = net.nodes[n], net.nodes[n].sig
     _, _, _, src_node, src_tick, enc_t_read, _, _ = out
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
-    # the encoder's binary angle is read at the tick itself up to the filter start (static window, start); the
-    # top node's replies after it are filled in below, no other tick reads it
+    # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
+    # node's requests, the reply read at the request's arrival; no other tick reads it
     yaw_enc = np.zeros((R, K), np.int64)
-    yaw_enc[:, :n_static + 1] = fw.config.encoder_yaw_raw(net.encoder.read_many(t[:n_static + 1])[0])
+    at_tick = (codes == tp.STATIC) | (codes == tp.START)
+    yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(net.encoder.read_many(t[at_tick])[0])
     enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    if n == 0:
-        t_read = np.where(np.isnan(enc_t_read[:, :K]), t, enc_t_read[:, :K])
-        y, rate = net.encoder.read_many(t_read)
-        after = np.arange(K) > n_static  # the start tick reads the encoder at the tick itself
-        yaw_enc = np.where(after, fw.config.encoder_yaw_raw(y), yaw_enc)
-        enc_rate, back_us = fw.config.encoder_rate_raw(rate), timer_us(t_read - t)
+    ask, t_read, y, rate = _encoder_reads(net, n, t, codes, enc_t_read)
+    if ask.size:
+        yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
+        enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
     src = src_node[:, n, :K]
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
@@ -358,13 +410,15 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> Non
     up_frames = _received_frames(net, n, above, offset, src_tick[:, n, :K], bits)
     inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
+    k_first = int(np.flatnonzero(codes == tp.START)[0]) + 1
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
         if n > 0:
-            frame_pass.receive_frames(offset, src_tick[:, n, :K], n_static + 1, k_end, up_frames, *rx, words, r0, r1)
-        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, n_static,
-                                  k_end, n == 0, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
+            frame_pass.receive_frames(offset, src_tick[:, n, :K], k_first, k_end, up_frames, *rx, words, r0, r1)
+        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts,
+                                  np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, codes, k_end,
+                                  node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
                                   tuple(a.sig.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
                                   bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
         return counts
@@ -373,8 +427,8 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> Non
     node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
     if n < net.n_nodes - 1:  # the bottom node sends nothing
         status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
-            node.node_id, node.first_tick, net.forward_every_tick, n_static + 1, k_end, node.applied, t, node.yaw_raw,
-            node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
+            node.node_id, node.first_tick, net.forward_every_tick, node.running, k_first, k_end, node.applied, t,
+            node.yaw_raw, node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
         if status < 0:
             name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
             raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
@@ -383,17 +437,34 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, bits) -> Non
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None):
     """Run the built network ``net`` on the compiled engine (module docstring) and return its ChainRun."""
-    links = _Links(net)
-    net.events, out, radio, stats = _resolve(net, links)
+    K = np.array([n.sig.t_s.size for n in net.nodes], dtype=np.int64)
+    T = np.full((int(K.max()), net.n_nodes), np.inf)  # tick-major: events in time order touch neighbouring memory
+    for i, node in enumerate(net.nodes):
+        T[:K[i], i] = node.sig.t_s
+    plan = tp.tick_plan(net.nodes, int(K.max()))
+    survey_plan = _survey_plan(net, T, plan)
+    links = _Links(net, _hops_up(net.n_nodes, survey_plan[0], survey_plan[4]))
+    net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
     net.engine = "compiled"
     links.store(stats)
     for i, node in enumerate(net.nodes):
         node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
     net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()
+    _ground_surveys(net, survey_plan[0], arrivals)
     if progress is not None:
         progress(0.5)  # phase 1 done; phase 2 reports node by node
     for n in range(net.n_nodes):
-        _run_node(net, n, out, links.bits)
+        _run_node(net, n, out, links.bits, plan[:K[n], n])
         if progress is not None:
             progress(0.5 + 0.5 * (n + 1) / net.n_nodes)
     return net.result()
+
+
+def _ground_surveys(net, senders: list, arrivals: tuple) -> None:
+    """The network's surveys (:meth:`Network.received_survey`) from phase 1's (arrival (R, S), event (S,)), in send
+    order (the order of their events)."""
+    arrival, event = arrivals
+    for s in np.argsort(event, kind="stable"):
+        n, k, stop = senders[s]
+        packet = SurveyPacket(stop.station, stop.md_m, n + 1, k, float(net.nodes[n].sig.t_s[k]), np.ones(net.R, bool))
+        net.received_survey(packet, arrival[:, s].copy(), [])  # no bit errors on these hops (``unsupported``)

@@ -36,6 +36,7 @@ import numpy as np
 from numba import njit
 
 from nodesim.chain.compiled.mac_kernel import time_row, transfer
+from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, STATIC, TOP
 
 DONE, NEED_DRAWS, INBOX_FULL = 0, 1, 2
 
@@ -179,81 +180,120 @@ def event_order(T, K, dead_at):
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_events(T, order, filter_start, dead_at, scheduled, nodes_cfg, fallback, chan, margin, draws, radio, stats,
-               mac, bits, scratch, inbox, last_seq, streak, out, need, started, r_first, r_end):
+def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac, bits,
+               scratch, inbox, last_seq, streak, out, need, cursor, r_first, r_end):
     """Run every event of ``order`` (from :func:`event_order`) in realizations ``r_first`` .. ``r_end - 1``
-    (module docstring; disjoint ranges may run on parallel threads, each with its own ``need`` and ``started``).
-    ``nodes_cfg`` = (processing_s, max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,)
-    int, after_failures, min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age, src_node, src_tick
-    (R, N, K), encoder t_read (R, K), stale (R, N), duplicate (R, N)); ``running`` is the same in every
-    realization and written by realization 0.  Returns a status code."""
+    (module docstring; disjoint ranges may run on parallel threads, each with its own ``need`` and ``cursor``
+    (N,), the next survey of each node).  ``plan``
+    (K, N): each tick's code (:mod:`.tick_plan`); ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
+    arrival (R, S), event (S,)): the surveys node n sends, ``first[n]`` .. ``stop[n] - 1`` in tick order, each at
+    its tick, up to the top node of its time and the ground station (arrival NaN where lost; its event's index,
+    written by realization 0); ``nodes_cfg`` = (processing_s,
+    max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures,
+    min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age,
+    src_node, src_tick (R, N, K), encoder t_read (R, N, K), stale (R, N), duplicate (R, N)); ``running`` is the
+    same in every realization and written by realization 0.  Links: down link h = h (0: the top node's encoder
+    exchange when node 1 is on top; node n's when it is), skip link of node n = N + n, up link h = 2N + h.
+    Returns a status code."""
     N = T.shape[1]
     ev_node, ev_tick = order
     processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
+    s_first, s_stop, s_tick, s_top, s_arrival, s_event = surveys
     running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
+    i_count = inbox[4]
     surface = N
     for r in range(r_first, r_end):
-        started[:] = False
+        for i in range(N):
+            cursor[i] = s_first[i]
         for e in range(ev_node.shape[0]):
             n, k = ev_node[e], ev_tick[e]
             t = T[k, n]
+            code = plan[k, n]
             seq = e + 1
-            if t < filter_start[n]:
+            if code == STATIC:
                 continue
-            if not started[n]:
-                started[n] = True
-                continue
-            if r == 0:
+            if code == HOLD:
+                i_count[r, n] = 0  # nothing arrives from a powered-down link; the state is saved
+            is_running = code == ASK or code == TOP or code == RUN
+            if r == 0 and is_running:
                 running[k, n] = True
             ready = t
-            valid = every_tick
-            if n == 0:
-                if scheduled[k]:
-                    got, arr, end, short, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats,
-                                                          mac, bits, scratch)
+            valid = every_tick and is_running
+            if code == ASK:
+                got, arr, end, short, _, _ = transfer(n, r, t, n, surface, np.inf, chan, draws, radio, stats, mac,
+                                                      bits, scratch)
+                if short:
+                    need[0], need[1], need[2] = n, r, e
+                    return NEED_DRAWS
+                t_read = arr if got else t
+                enc_t_read[r, n, k] = t_read
+                if got:
+                    have, arr2, end2, short, _, _ = transfer(n, r, end, surface, n, np.inf, chan, draws, radio,
+                                                             stats, mac, bits, scratch)
                     if short:
-                        need[0], need[1], need[2] = 0, r, e
+                        need[0], need[1], need[2] = n, r, e
                         return NEED_DRAWS
-                    t_read = arr if got else t
-                    enc_t_read[r, k] = t_read
-                    if got:
-                        have, arr2, end2, short, _, _ = transfer(0, r, end, surface, n, np.inf, chan, draws, radio,
-                                                                 stats, mac, bits, scratch)
-                        if short:
-                            need[0], need[1], need[2] = 0, r, e
-                            return NEED_DRAWS
-                        if have:
-                            applied[r, n, k] = True
-                            age[r, n, k] = arr2 - t_read
-                            ready = arr2
-                            valid = True
-            elif _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age, bits):
+                    if have:
+                        applied[r, n, k] = True
+                        age[r, n, k] = arr2 - t_read
+                        ready = arr2
+                        valid = True
+            elif code == RUN and _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick,
+                                         age, bits):
                 applied[r, n, k] = True
                 valid = True
-            if n == N - 1 or not valid:
-                continue
-            got, arr, end, short, c_try, c_ber = transfer(n + 1, r, ready + processing_s, n, n + 1, dead_at[n + 1],
-                                                          chan, draws, radio, stats, mac, bits, scratch)
-            if short:
-                need[0], need[1], need[2] = n + 1, r, e
-                return NEED_DRAWS
-            if got and not _deliver(inbox, r, n + 1, seq, n, k, arr, c_try, c_ber):
-                return INBOX_FULL
-            if not fb_on[n] or math.isnan(end):  # fallback off, or the queue dropped the frame (faults.Fallback)
-                continue
-            if got:
-                streak[r, n] = 0
-                continue
-            streak[r, n] += 1
-            link = fb_link[n]
-            g = time_row(chan, link, t)
-            if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
-                got, arr, end, short, c_try, c_ber = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws,
-                                                              radio, stats, mac, bits, scratch)
-                if short:
-                    need[0], need[1], need[2] = link, r, e
-                    return NEED_DRAWS
-                if got and not _deliver(inbox, r, n + 2, seq, n, k, arr, c_try, c_ber):
-                    return INBOX_FULL
+            if n < N - 1 and valid:
+                status = _send_estimate(r, e, n, k, seq, ready + processing_s, t, dead_at, fb_on, fb_link, fb_after,
+                                        fb_min_margin, chan, margin, draws, radio, stats, mac, bits, scratch, inbox,
+                                        streak, need)
+                if status != DONE:
+                    return status
+            while cursor[n] < s_stop[n] and s_tick[cursor[n]] == k:
+                s = cursor[n]
+                cursor[n] = s + 1
+                if r == 0:
+                    s_event[s] = e
+                at = ready  # after the node's own exchange (a top node's encoder reply)
+                top = s_top[s]
+                for h in range(n, top - 1, -1):  # hop by hop up to the top node, then the ground station
+                    rx = h - 1 if h > top else surface
+                    got, at, _, short, _, _ = transfer(2 * N + h, r, at, h, rx, dead_at[rx] if h > top else np.inf,
+                                                       chan, draws, radio, stats, mac, bits, scratch)
+                    if short:
+                        need[0], need[1], need[2] = 2 * N + h, r, e
+                        return NEED_DRAWS
+                    if not got:
+                        break
+                s_arrival[r, s] = at
+    return DONE
+
+
+@njit(cache=True, inline="always")
+def _send_estimate(r, e, n, k, seq, t_ready, t, dead_at, fb_on, fb_link, fb_after, fb_min_margin, chan, margin,
+                   draws, radio, stats, mac, bits, scratch, inbox, streak, need) -> int:
+    """Node n's estimate frame down its link, with the fallback to the next-but-one node (a status code)."""
+    got, arr, end, short, c_try, c_ber = transfer(n + 1, r, t_ready, n, n + 1, dead_at[n + 1], chan, draws, radio,
+                                                  stats, mac, bits, scratch)
+    if short:
+        need[0], need[1], need[2] = n + 1, r, e
+        return NEED_DRAWS
+    if got and not _deliver(inbox, r, n + 1, seq, n, k, arr, c_try, c_ber):
+        return INBOX_FULL
+    if not fb_on[n] or math.isnan(end):  # fallback off, or the queue dropped the frame (faults.Fallback)
+        return DONE
+    if got:
+        streak[r, n] = 0
+        return DONE
+    streak[r, n] += 1
+    link = fb_link[n]
+    g = time_row(chan, link, t)
+    if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
+        got, arr, end, short, c_try, c_ber = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio,
+                                                      stats, mac, bits, scratch)
+        if short:
+            need[0], need[1], need[2] = link, r, e
+            return NEED_DRAWS
+        if got and not _deliver(inbox, r, n + 2, seq, n, k, arr, c_try, c_ber):
+            return INBOX_FULL
     return DONE

@@ -3,8 +3,9 @@
 Estimates only flow down the chain, so the nodes are run one after the other from the top, each over all of its
 ticks, with the references phase 1 chose (:mod:`nodesim.chain.compiled.events`).  Per running tick k and
 realization r, as :class:`nodesim.chain.node_process.ChainNode` does it:
+    a holding tick (a tube insertion above the node): record the saved state, nothing else;
     predict with the tick-averaged gyro rate;
-    top node, scheduled tick, reply received:  update with the encoder reference (computed by the caller);
+    the top node of the time, scheduled tick, reply received:  update with the encoder reference (the caller's);
     other nodes, a packet taken from node n - s (s = 1, or 2 after a fallback) read at its tick j:
         transfer = T[k] - T_(n-s)[j],  omega = gyro - bias_hat  (+ slope (dt - transfer) / 2 when extrapolated)
         psi_ref = psi_hat_(n-s)[j] + omega transfer                                  (thesis eq 3.29)
@@ -26,6 +27,7 @@ from numba import njit
 from firmware_model import fixed_kernel as fxk
 from firmware_model import node_firmware as nf
 from nodesim.chain.compiled import float_kernel as flk
+from nodesim.chain.compiled import tick_plan as tp
 
 
 @njit(cache=True, inline="always")
@@ -53,22 +55,27 @@ def _outputs(fixed, fst, ist, fparams, iparams):
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, is_top, enc_ref, enc_var,
+def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, codes, enc_ref, enc_var,
              applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
              yaw, var, bias, ref_yaw, ref_var, r_first, r_end) -> None:
     """Ticks ``k_first`` .. ``k_end - 1`` of one node in realizations ``r_first`` .. ``r_end - 1`` (module
-    docstring; disjoint ranges may run on parallel threads, each with its own ``counts``); ``up_*`` = (node
-    above, node two above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how far up the reference
-    came from), -1 for none."""
+    docstring; disjoint ranges may run on parallel threads, each with its own ``counts``); ``codes`` (K,) what
+    the node does at each tick (:mod:`.tick_plan`: static ticks are the caller's, a holding tick records the saved
+    state); ``up_*`` = (node above, node two above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how
+    far up the reference came from), -1 for none."""
     for r in range(r_first, r_end):  # realizations are independent: one after the other, each over its ticks
         fst, ist = fstate[r if not fixed else 0], istate[r if fixed else 0]
         for k in range(k_first, k_end):
-            _predict(fixed, fst, ist, gyro[r, k], fparams, iparams, counts)
-            if is_top:
-                if applied[r, k]:  # only ever on a scheduled tick
+            c = codes[k]
+            if c == tp.STATIC:
+                continue
+            if c != tp.HOLD:
+                _predict(fixed, fst, ist, gyro[r, k], fparams, iparams, counts)
+            if c == tp.ASK:
+                if applied[r, k]:
                     _update(fixed, fst, ist, enc_ref[r, k], enc_var, fparams, iparams, counts)
                     ref_yaw[r, k], ref_var[r, k] = enc_ref[r, k], enc_var
-            elif src_node[r, k] > 0:
+            elif c == tp.RUN and src_node[r, k] > 0:
                 s, j = src_node[r, k] - 1, src_tick[r, k]
                 transfer = t[k] - up_t[s][j]
                 omega = gyro[r, k] - _outputs(fixed, fst, ist, fparams, iparams)[2]
@@ -95,13 +102,13 @@ def sequential_sum(gyro, stop: int):
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t, n_static, k_end, is_top, applied,
+def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t, codes, k_end, applied,
                       enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, rx_yaw_raw, rx_var_raw,
                       inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var, bias, ref_yaw, ref_var, r_first,
                       r_end) -> None:
     """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`) of one node over ticks
-    0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``: static window before ``n_static``, the filter
-    started at ``n_static``, then predict and the reference phase 1 chose (the encoder reply read ``enc_back_us``
+    0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``, each tick as ``codes`` says (:mod:`.tick_plan`):
+    static window, the filter's start, holding, or predict and the reference phase 1 chose (the encoder reply read ``enc_back_us``
     after the tick for the top node; for the others ``rx_*_raw[r, k]``, the yaw and P_yy words decoded from the
     estimate frame node n - s sent at its tick j, :func:`.frame_pass.receive_frames`).  Records the yaw, P_yy,
     rate and bias raws (the words of the frame it sends, :func:`.frame_pass.send_frames`) and the floats the SimPy
@@ -111,23 +118,26 @@ def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t,
         st, x, o = states[r], inp[r], out[r]
         nf.init_lane(st)
         for k in range(k_end):
+            c = codes[k]
             x[nf.IN_GZ], x[nf.IN_N], x[nf.IN_REF] = gyro_z_sum[r, k], n_samples[k], nf.NO_REF
-            if k < n_static:
+            if c == tp.STATIC:
                 x[nf.IN_PHASE] = nf.STATIC
-            elif k == n_static:
+            elif c == tp.START:
                 x[nf.IN_PHASE], x[nf.IN_YAW0] = nf.START, enc_yaw_raw[r, k]
+            elif c == tp.HOLD:
+                x[nf.IN_PHASE] = nf.HOLD
             else:
                 x[nf.IN_PHASE] = nf.RUN
-                if is_top:
+                if c == tp.ASK:
                     if applied[r, k]:
                         x[nf.IN_REF], x[nf.IN_REF_YAW] = nf.ENCODER_REF, enc_yaw_raw[r, k]
                         x[nf.IN_REF_AUX], x[nf.IN_TRANSFER] = enc_rate_raw[r, k], enc_back_us[r, k]
-                elif src_node[r, k] > 0:
+                elif c == tp.RUN and src_node[r, k] > 0:
                     s, j = src_node[r, k] - 1, src_tick[r, k]
                     x[nf.IN_REF], x[nf.IN_REF_YAW], x[nf.IN_REF_AUX] = nf.FORWARDED_REF, rx_yaw_raw[r, k], rx_var_raw[r, k]
                     x[nf.IN_TRANSFER] = np.int64(np.rint((t[k] - up_t[s][j]) * 1e6))  # estimator.timer_us
             nf.node_tick(st, params, fparams, counts, x, o)
-            if k < n_static:  # the static window reports the encoder's yaw (its survey's azimuth reference)
+            if c == tp.STATIC:  # the static window reports the encoder's yaw (its survey's azimuth reference)
                 yaw_raw[r, k] = enc_yaw_raw[r, k]
                 continue
             yaw_raw[r, k], var_raw[r, k] = st[fxk.I_YAW], st[fxk.I_PYY]

@@ -34,14 +34,15 @@ def receive_frames(src_node, src_tick, k_first, k_end, up_frames, rx_yaw_raw, rx
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def send_frames(node_id, first_tick, every_tick, k_first, k_end, applied, t, yaw_raw, var_raw, rate_raw, bias_raw,
-                frames, words, r_first, r_end) -> int:
-    """``frames[r, k]`` = the estimate frame sent at tick k (k_first .. k_end - 1, where ``applied[r, k]`` or
-    ``every_tick``); returns the lowest encoder status (< 0: a word did not fit its field)."""
+def send_frames(node_id, first_tick, every_tick, running, k_first, k_end, applied, t, yaw_raw, var_raw, rate_raw,
+                bias_raw, frames, words, r_first, r_end) -> int:
+    """``frames[r, k]`` = the estimate frame sent at tick k (k_first .. k_end - 1, where ``applied[r, k]``, or
+    ``every_tick`` and the node ran that tick (not holding)); returns the lowest encoder status (< 0: a word did
+    not fit its field)."""
     worst = 0
     for r in range(r_first, r_end):
         for k in range(k_first, k_end):
-            if applied[r, k] or every_tick:
+            if applied[r, k] or (every_tick and running[k]):
                 s = fr.encode_estimate(node_id, k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
                                        var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r], frames[r, k])
                 worst = min(worst, s)

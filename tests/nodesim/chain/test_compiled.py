@@ -61,6 +61,34 @@ CASES = {
     "step back by 19 whole ticks": {**LOSSY, "faults.clock_step": [{"node": 2, "at_s": 100.0, "step_s": -10.0}]},
 }
 
+# drilling (tube insertions, holds, the top node changing, survey stops, surveys hop by hop up to the ground
+# station): 4 tubes, 60 s per tube drilled, 30 s stops, 30 s insertions (programme 60 + 4 x 90 + 3 x 30 = 510 s)
+DRILL = {"motion.kind": "drilling", "chain.nodes": 4, "simulation.duration_s": 520.0, "simulation.realizations": 3,
+         "metrics.window_start_s": 0.0, "metrics.window_end_s": 520.0, "motion.rate_of_penetration_m_s": 2.0 / 60.0,
+         "motion.survey_stop_s": 30.0, "motion.survey_settle_s": 15.0, "motion.insertion_s": 30.0,
+         "motion.wellpath": [[0.0, 2.0, 120.0], [10.0, 6.0, 135.0]]}
+DRILL_LOSSY = {**DRILL, **{k: v for k, v in LOSSY.items() if k.startswith(("radio.", "mac."))}}
+CASES.update({
+    "drilling, simple links": DRILL,
+    "drilling, lossy hops with ARQ": DRILL_LOSSY,
+    "drilling, lossy, every tick, extrapolated": {**DRILL_LOSSY, "chain.forward": "every_tick",
+                                                  "chain.rate_compensation": "extrapolated"},
+    "drilling, pipe hops": {**DRILL_LOSSY, "radio.kind": "pipe"},
+    "drilling, windowed schedule": {**DRILL_LOSSY, "schedule.mode": "windowed", "schedule.update_s": 20.0,
+                                    "schedule.timeout_s": 10.0},
+    "drilling, no updates": {**DRILL_LOSSY, "schedule.mode": "none"},
+    "drilling, dead node on the survey path": {**DRILL, "faults.node_failure": [{"node": 3, "at_s": 400.0}]},
+    "drilling, up-hop outage": {**DRILL_LOSSY, "faults.link_outage": [{"hop": 3, "start_s": 200.0, "end_s": 330.0}]},
+    "drilling, per-node clocks": {**DRILL_LOSSY, "chain.node": [{"id": 2, "clock_offset_s": 0.3, "clock_drift_ppm": 200.0},
+                                                                {"id": 4, "clock_drift_ppm": -150.0}]},
+    "pipe hops": {**LOSSY, "radio.kind": "pipe"},
+    "no updates": {**BASE, "schedule.mode": "none"},
+    "arbitrary schedule": {**LOSSY, "schedule.mode": "arbitrary",
+                           "schedule.windows": [[55.0, 90.0, 1.9], [100.0, 140.0, 0.3]]},
+    "per-node clocks": {**LOSSY, "chain.node": [{"id": 2, "clock_offset_s": 0.4, "clock_drift_ppm": 250.0},
+                                                {"id": 3, "clock_offset_s": 0.0}]},
+})
+
 
 UNDETECTED = {**LOSSY, "filter.implementation": "fixed", "mac.bit_errors": True, "mac.preamble_bits": 0,
               "mac.max_retries": 20, "radio.soil.distance_m": 2.3, "simulation.realizations": 10, "seed": 4}
@@ -78,6 +106,14 @@ FIXED = {  # the bit-exact fixed-point filter (its overflow counting is checked 
                                                   "mac.bit_errors": True, "radio.soil.distance_m": 1.1,
                                                   "faults.fallback_min_margin_db": -20.0},
     "fixed, bit errors, undetected corruption used": UNDETECTED,
+    "fixed, drilling, lossy hops": {**DRILL_LOSSY, "filter.implementation": "fixed"},
+    "fixed, drilling, every tick, dead node": {**DRILL_LOSSY, "filter.implementation": "fixed",
+                                               "chain.forward": "every_tick",
+                                               "faults.node_failure": [{"node": 3, "at_s": 400.0}]},
+    "fixed, drilling, arbitrary schedule, per-node clocks": {
+        **DRILL_LOSSY, "filter.implementation": "fixed", "schedule.mode": "arbitrary",
+        "schedule.windows": [[60.0, 250.0, 1.9], [250.0, 520.0, 0.5]],
+        "chain.node": [{"id": 1, "clock_offset_s": 0.2, "clock_drift_ppm": 300.0}]},
 }
 
 
@@ -106,13 +142,24 @@ def assert_identical(event, compiled) -> None:
     for la, lb in pairs + list(zip(event.skip_links, compiled.skip_links)):
         for f in ("frames", "delivered", "attempts", "dropped", "latency_sum_s", "crc_rejected", "undetected"):
             _same(getattr(la.stats, f), getattr(lb.stats, f), f"{la.channel.name} {f}")
+    assert len(event.surveys) == len(compiled.surveys)
+    for i, (ga, gb) in enumerate(zip(event.surveys, compiled.surveys)):
+        for f in dataclasses.fields(ga.packet):
+            _same(getattr(ga.packet, f.name), getattr(gb.packet, f.name), f"survey {i} {f.name}")
+        _same(ga.arrival_s, gb.arrival_s, f"survey {i} arrival")
+        assert (ga.frame is None) == (gb.frame is None), f"survey {i} frame"
+        if ga.frame is not None:
+            _same(ga.frame, gb.frame, f"survey {i} frame")
 
 
 @pytest.mark.parametrize("name", list(CASES) + list(FIXED))
 def test_compiled_engine_matches_the_event_engine(name):
     event, compiled = _both({**CASES, **FIXED}[name])
     assert_identical(event, compiled)
-    assert any(n.update_mask.any() for n in compiled.nodes)  # the run did something worth comparing
+    if "no updates" in name:  # the filters coast: predictions only
+        assert all(n.running.any() for n in compiled.nodes) and not any(n.update_mask.any() for n in compiled.nodes)
+    else:
+        assert any(n.update_mask.any() for n in compiled.nodes)  # the run did something worth comparing
 
 
 def test_lossy_case_exercises_retries_losses_and_lane_differences():
@@ -162,9 +209,33 @@ def test_phase_1_restarts_do_not_grow_with_the_realizations(monkeypatch):
     assert 1 <= len(calls) <= 6
 
 
-def test_auto_picks_compiled_for_lab_and_event_for_drilling():
+def test_drilling_cases_exercise_insertions_holds_and_surveys():
+    """The drilling cases do what they are named for: nodes hold, the top node changes, every stop's survey is
+    sent, the lossy ones lose some on the way up, and a node dead on the survey path loses what crosses it."""
+    _, run = _both(DRILL_LOSSY)
+    assert [g.packet.station for g in run.surveys] == [1, 2, 3, 4]
+    assert all(g.packet.node_id == 4 for g in run.surveys)
+    assert sum(int(x.stats.attempts.sum() - x.stats.frames.sum()) for x in run.up_links) > 0  # retries going up
+    assert not all(n.running[n.t_s >= n.present_from_s].all() for n in run.nodes)  # holds
+    for node, tl in zip(run.nodes, run.motion.timelines):  # each node was the encoder-aided top node in its time
+        assert node.update_mask[:, node.t_s < tl.top_until_s].sum(axis=1).min() > 10
+    _, run = _both(CASES["drilling, dead node on the survey path"])
+    assert np.isnan(run.surveys[-1].arrival_s).all() and np.isfinite(run.surveys[0].arrival_s).all()
+
+
+def test_a_node_not_yet_inserted_does_not_tick():
+    """Its first tick is the first at or after its insertion (it costs no event before); it has no records there."""
+    for run in _both(DRILL):
+        for node in run.nodes:
+            assert node.t_s[0] >= node.present_from_s and node.t_s[0] - node.present_from_s < 1.0 / 1.9
+        assert run.nodes[0].t_s.size < run.nodes[-1].t_s.size / 2
+
+
+def test_auto_picks_the_compiled_engine_for_lab_and_drilling():
     assert choose_engine(Scenario()) == "compiled"
     drilling = Scenario().with_overrides(**{"motion.kind": "drilling", "chain.nodes": 2})
-    assert choose_engine(drilling) == "event"
-    with pytest.raises(NodesimError, match="simulation.engine = 'compiled'.*drilling"):
-        choose_engine(drilling.with_overrides(**{"simulation.engine": "compiled"}))
+    assert choose_engine(drilling) == "compiled"
+    bits = drilling.with_overrides(**{"radio.model": "channel", "filter.implementation": "fixed", "mac.bit_errors": True})
+    assert choose_engine(bits) == "event"
+    with pytest.raises(NodesimError, match="simulation.engine = 'compiled'.*bit_errors.*drilling"):
+        choose_engine(bits.with_overrides(**{"simulation.engine": "compiled"}))

@@ -1,0 +1,48 @@
+"""What every node does at each of its ticks, as one small code per (tick, node): both phases of the compiled engine
+read it instead of asking the node's timeline.
+
+The codes follow the branches of :meth:`nodesim.chain.node_process.ChainNode.process`, in its order of tests:
+  * ``STATIC``: before the node's filter start (its static window: it averages the gyro, reports the encoder);
+  * ``START``: its first tick from the filter start (the filter starts from an encoder yaw; no update);
+  * ``HOLD``: a tube insertion above it (state saved, inbox emptied, no update, nothing sent);
+  * ``ASK``: it is the top node and the schedule asks the encoder this tick;
+  * ``TOP``: it is the top node, no encoder request this tick (predict only);
+  * ``RUN``: any other node, running: it takes the newest fresh estimate from above.
+``ABSENT`` pads the ticks a node does not have (a shorter clock), those after its death and any before it is in
+its tube.  Lab motion: node 1
+is the top node for the whole run, nothing holds.  Drilling: a node is the top node from its insertion until the
+next tube's insertion starts (:class:`nodesim.motion.timelines.NodeTimeline`), and holds in every later one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+ABSENT, STATIC, START, HOLD, ASK, TOP, RUN = 0, 1, 2, 3, 4, 5, 6
+RUNNING = (ASK, TOP, RUN)  # the ticks the SimPy engine marks ``running``
+
+
+def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: float) -> np.ndarray:
+    """(K,) int8 codes of one node's ticks ``t_s`` (module docstring); ``scheduled`` (K,) the encoder schedule."""
+    t = np.asarray(t_s, dtype=float)
+    codes = np.full(t.size, RUN, dtype=np.int8)
+    top = (t >= timeline.present_from_s) & (t < timeline.top_until_s)
+    codes[top] = np.where(scheduled[top], ASK, TOP)
+    for a, b in timeline.holds:
+        codes[(t >= a) & (t < b)] = HOLD
+    static = t < timeline.filter_start_s
+    codes[static] = STATIC
+    first = np.flatnonzero(~static)
+    if first.size:
+        codes[first[0]] = START
+    codes[(t >= dead_at_s) | (t < timeline.present_from_s)] = ABSENT
+    return codes
+
+
+def tick_plan(nodes, Kmax: int) -> np.ndarray:
+    """(Kmax, N) int8 codes of every node (tick-major, as phase 1 walks the events), ``ABSENT`` past a node's end."""
+    plan = np.full((Kmax, len(nodes)), ABSENT, dtype=np.int8)
+    for n, node in enumerate(nodes):
+        t = node.sig.t_s
+        plan[:t.size, n] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
+    return plan
