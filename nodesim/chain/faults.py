@@ -11,8 +11,10 @@ ad-hoc fallback to the next-but-one node.  None of them stops the run; their eff
   ``fallback_after_failures`` frames in a row went unacknowledged by its neighbour, a node that fails again
   sends the frame on to the node after its neighbour over the skip hop (:mod:`nodesim.chain.radio`), if the
   skip hop's margin (shadowing included) is at least ``fallback_min_margin_db``; per realization.  It keeps
-  trying its neighbour first, so it returns to it when it answers again (after an outage).  Estimates going
-  down only: surveys going up through a dead node are lost.  Faults are deterministic in time, so the event
+  trying its neighbour first, so it returns to it when it answers again (after an outage).  Surveys going up
+  take the skip hop the same way, at once (a survey is sent once, so there is no streak to wait for): a survey
+  hop left unanswered after its tries goes on to the node two above, if the skip hop's margin allows
+  (:meth:`nodesim.chain.network.Network.up_skip_open`).  Faults are deterministic in time, so the event
   skeleton stays shared.
 """
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 from typing import Callable
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -175,6 +175,7 @@ class Network:
                               FrameErrors(fr.SURVEY, streams.bit_error_keys(R, c.nodes + h)) if mac.bit_errors else None)
                          for h in range(c.nodes)]
         self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
+        self._up_skip_links: dict[int, Link] = {}
         self._errors = errors
         self.surface = RadioState(R, mac.queue_length)
         self.seq = 0
@@ -218,21 +219,67 @@ class Network:
 
     def send_survey(self, packet: SurveyPacket, ready_s) -> None:
         """Hop by hop from the surveying node to the top node and on to the ground station, resolved by the
-        MAC at once (arrival per realization; a dead node on the way loses it)."""
+        MAC at once (arrival per realization).  A hop that stays unanswered after its tries (a dead node above)
+        goes on over the skip hop to the node two above, as the fallback carries estimates down
+        (:meth:`up_skip_open`); otherwise the survey is lost there."""
         t = self.env.now
         top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
         at = np.broadcast_to(np.asarray(ready_s, dtype=float), (self.R,)).copy()  # after the node's own exchange
         valid = packet.valid.copy()
+        holder = np.full(self.R, packet.node_id)  # the node that has the survey, per realization (top - 1: ground)
         hops = []  # (link, transfer) per hop: the frame's bytes are made after the run (_survey_frames)
         for node_id in range(packet.node_id, top - 1, -1):
-            above = self.nodes[node_id - 2] if node_id > top else None
+            sending = valid & (holder == node_id)
+            if not sending.any():
+                continue
+            node, above = self.nodes[node_id - 1], self.nodes[node_id - 2] if node_id > top else None
             link = self.up_links[node_id - 1]
-            tr = link.transfer(at, valid, self.nodes[node_id - 1].radio, above.radio if above else self.surface,
-                               above.dead_at_s if above else np.inf)
+            tr = link.transfer(np.where(sending, at, np.nan), sending, node.radio,
+                               above.radio if above else self.surface, above.dead_at_s if above else np.inf)
             hops.append((link, tr))
-            valid = tr.delivered
-            at = np.where(valid, tr.arrival_s, np.nan)
-        self.received_survey(packet, at, hops)
+            got = tr.delivered
+            at, holder = np.where(got, tr.arrival_s, at), np.where(got, node_id - 1, holder)
+            skip = sending & ~got & ~np.isnan(tr.end_s) & self.up_skip_open(node_id, top, t)
+            if skip.any():
+                to = self.nodes[node_id - 3]
+                link = self.up_skip_link(node_id)
+                tr = link.transfer(np.where(skip, tr.end_s, np.nan), skip, node.radio, to.radio, to.dead_at_s)
+                hops.append((link, tr))
+                at, holder = np.where(tr.delivered, tr.arrival_s, at), np.where(tr.delivered, node_id - 2, holder)
+                got = got | tr.delivered
+            valid &= ~sending | got
+        self.received_survey(packet, np.where(valid & (holder == top - 1), at, np.nan), hops)
+
+    def up_skip_open(self, node_id: int, top: int, t_s: float) -> np.ndarray:
+        """(R,) where a survey unanswered by ``node_id``'s neighbour above may go on to node ``node_id - 2``: a
+        node there below the top one, ``faults.fallback`` on with the ARQ MAC, and the skip hop's margin (shadowing
+        included) at least ``faults.fallback_min_margin_db`` (the estimates' rule, :class:`faults.Fallback`,
+        without its streak: a survey is sent once)."""
+        skip = self.up_skip_channel(node_id) if node_id - 2 >= top else None
+        if skip is None:
+            return np.zeros(self.R, dtype=bool)
+        g = min(int(t_s / skip.step_s), skip.margin_db.shape[0] - 1)
+        return skip.margin_db[g] >= self.scenario.faults.fallback_min_margin_db
+
+    def up_skip_channel(self, node_id: int) -> HopChannel | None:
+        """The skip hop between ``node_id`` and ``node_id - 2`` for survey frames (None where there is none or the
+        fallback is off)."""
+        f, mac = self.scenario.faults, self.scenario.mac
+        skip = self._skips[node_id - 2] if 1 <= node_id - 2 else None
+        if skip is None or not (f.fallback and mac.enabled):
+            return None
+        return replace(skip.for_frame(mac.frame_bits(fr.SURVEY_BYTES), self.scenario.radio.bit_rate_bps),
+                       name=f"skip{node_id}-{node_id - 2}")
+
+    def up_skip_link(self, node_id: int) -> Link:
+        """The survey skip link from ``node_id`` up to node ``node_id - 2`` (over the skip hop between them, for
+        the survey frame's length; built on first use, its draws from its own streams)."""
+        if node_id not in self._up_skip_links:
+            mac, streams, channel = self.scenario.mac, self._streams, self.up_skip_channel(node_id)
+            errors = FrameErrors(fr.SURVEY, streams.up_skip_bit_error_keys(self.R, node_id)) if mac.bit_errors else None
+            self._up_skip_links[node_id] = self._make_link(
+                channel, LazyStreams(partial(streams.up_skip_link_batch, self.R, node_id), self.R), -1, errors)
+        return self._up_skip_links[node_id]
 
     def received_survey(self, packet: SurveyPacket, arrival_s: np.ndarray, hops: list) -> None:
         """Record a survey sent and what reached the ground station: ``arrival_s`` (R,), NaN where it was lost;
@@ -284,7 +331,8 @@ class Network:
         """The run's records (after :meth:`run`, or after the compiled engine filled them in)."""
         points = self.scenario.filter.moving_average_points
         runs = tuple(_node_run(n, points) for n in self.nodes)
-        skips = tuple(s for _, s in sorted(self._skip_links.items()) if s.stats.frames.any())
+        skips = tuple(s for links in (self._skip_links, self._up_skip_links) for _, s in sorted(links.items())
+                      if s.stats.frames.any())
         lost = sum(link.stats.lost for link in self.down_links + self.up_links + list(skips))
         return ChainRun(
             nodes=runs,

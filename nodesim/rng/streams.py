@@ -15,6 +15,8 @@ realization or a node never changes the streams of the others:
                                                           links: its shadowing draws)
       skip link of node h = realization.spawn(4N + ...)[4N + h]   (the ad-hoc fallback from node h, 1-based,
                                                           to the node after its neighbour)
+      up skip link of h   = realization.spawn(5N + ...)[5N + h]   (node h's surveys past a silent neighbour
+                                                          above, to node h - 2)
       bit errors of a link = child 0 of that link's (or skip link's) SeedSequence: its key for the
                                                           counter-based bit-error stream (mac.bit_errors,
                                                           nodesim.chain.bit_errors), the first uint64 word
@@ -206,6 +208,22 @@ class RunStreams:
     def _skip_child(self, node: int) -> int:
         """Realization child index of node ``node``'s fallback skip-link stream (after the radio hops)."""
         return 4 * self.n_nodes + node
+
+    def _up_skip_child(self, node: int) -> int:
+        """Realization child index of node ``node``'s survey skip-link stream (up, to node - 2)."""
+        return 5 * self.n_nodes + node
+
+    def up_skip_link_batch(self, realizations: int, node: int) -> list[np.random.Generator]:
+        """Generators of node ``node``'s (1-based sender) survey skip link, realizations 0..realizations-1."""
+        return self._batch(realizations, self._up_skip_child(node))
+
+    def up_skip_link_states(self, realizations: int, node: int) -> np.ndarray:
+        """:meth:`up_skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.rng.pcg64`."""
+        return pcg64_states(self.seed, self._keys(realizations, self._up_skip_child(node)))
+
+    def up_skip_bit_error_keys(self, realizations: int, node: int) -> np.ndarray:
+        """The bit-error keys of node ``node``'s survey skip link (1-based sender)."""
+        return seed_words(self.seed, self._keys(realizations, self._up_skip_child(node), 0))[:, 0].copy()
 
     def link(self, realization: int, link: int) -> np.random.Generator:
         """Generator for link ``link`` (0 = encoder/top hop) in ``realization``."""

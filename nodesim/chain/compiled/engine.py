@@ -9,12 +9,16 @@ channels, links with their draw streams, faults: the same objects the SimPy engi
    :mod:`firmware_model.fixed_kernel`), since estimates only flow down;
 3. fills the nodes', links' and radios' records, so :meth:`Network.result` builds the same :class:`ChainRun`.
 
-Bit-identical to the SimPy engine (tests/nodesim/chain/test_compiled.py compares every record).  Covered:
-lab motion (every node present from t = 0, node 1 on top), every schedule, simple and channel links, the MAC,
-node failures, outages, bursts, clock steps and the fallback, float and fixed filters (default fixed-point
-policy), the fixed firmware's estimate frames as bytes (:mod:`.frame_pass`) and ``mac.bit_errors`` (phase 1 decides
-each try on its error pattern, phase 2 applies the flips the CRC let through to the received bytes,
-:mod:`nodesim.chain.bit_errors`).  Drilling runs (tube insertions, holds, survey stops and surveys going up) stay on the SimPy engine.
+Bit-identical to the SimPy engine (tests/nodesim/chain/test_compiled.py compares every record).  Covered: lab
+and drilling motion (tube insertions: a node ticks from its insertion, its static window, the holds of the nodes
+below, the top node of the time asking the encoder, survey stops and the surveys going up hop by hop to the ground
+station, over the skip hop past a silent node), every schedule, simple and channel links (soil, pipe, cable), the
+MAC, node failures, outages, bursts, clock steps, per-node clocks and the fallback, float and fixed filters
+(default fixed-point policy), the fixed firmware's estimate frames as bytes (:mod:`.frame_pass`) and
+``mac.bit_errors`` (phase 1 decides each try on its error pattern, phase 2 applies the flips the CRC let through
+to the received bytes, :mod:`nodesim.chain.bit_errors`) on the estimates going down; bit errors in the survey
+frames going up are the SimPy engine's only (``unsupported``).  What each node does at each tick comes from one
+plan (:mod:`.tick_plan`).
 Uniform draws are buffered per link and realization from the link's own stream; a lane that runs out makes
 phase 1 start again with a longer buffer (same stream, same numbers).
 """
@@ -65,18 +69,20 @@ def choose_engine(scenario: Scenario) -> str:
 
 class _Links:
     """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback; built, with
-    its draws, only if phase 1 needs it), up links 2N + h (hop h, surveys), as realization-major arrays
-    (:mod:`.mac_kernel`).  ``hops_up[h]``: how many surveys cross hop h (what its draws are sized for)."""
+    its draws, only if phase 1 needs it), up links 2N + h (hop h, surveys), survey skip links 3N + h (node h's
+    surveys past a silent neighbour, to node h - 2; built on use), as realization-major arrays (:mod:`.mac_kernel`).  ``hops_up[h]``: how many surveys cross hop h (what its draws are sized for)."""
 
     def __init__(self, net, hops_up: np.ndarray):
         N, R = net.n_nodes, net.R
         self.net = net
-        self.links: list = list(net.down_links) + [None] * N + list(net.up_links)
+        self.links: list = list(net.down_links) + [None] * N + list(net.up_links) + [None] * N
+        surveys = bool(hops_up.any())
         channels = [x.channel for x in net.down_links] + [
             net._skips[i + 1] if node.fallback.enabled else None for i, node in enumerate(net.nodes)] + [
-            x.channel for x in net.up_links]
-        bursts = [x.burst for x in net.down_links] + [None] * N + [x.burst for x in net.up_links]
-        outages = [x.outages for x in net.down_links] + [()] * N + [x.outages for x in net.up_links]
+            x.channel for x in net.up_links] + [net.up_skip_channel(h + 1) if surveys else None for h in range(N)]
+        bursts = [x.burst for x in net.down_links] + [None] * N + [x.burst for x in net.up_links] + [None] * N
+        outages = [x.outages for x in net.down_links] + [()] * N + [x.outages for x in net.up_links] + [()] * N
+        self.up_skips = np.array([ch is not None for ch in channels[3 * N:]])
         live = [ch for ch in channels if ch is not None]
         G = max(ch.per_data_table.shape[0] for ch in live)
         O = max([len(o) for o in outages] + [1])
@@ -133,7 +139,7 @@ class _Links:
         has_bytes = np.zeros(L, dtype=bool)
         for i, ch in enumerate(channels):
             if not on or ch is None or i == 0 or i >= 2 * N:  # link 0: the encoder exchange (no frame bytes); up
-                # links carry survey frames, which mac.bit_errors does not reach on this engine (``unsupported``)
+                # (and survey skip) links carry survey frames, which mac.bit_errors does not reach on this engine (``unsupported``)
                 continue
             g = ch.ber_table.shape[0]
             ber[:, i, :g], per_pre[:, i, :g] = ch.ber_table.T, ch.per_preamble_table.T
@@ -148,8 +154,9 @@ class _Links:
 
     def link(self, i: int):
         """Link ``i``'s object (a skip link is built on first use, as the SimPy engine does)."""
+        N = self.net.n_nodes
         if self.links[i] is None:
-            self.links[i] = self.net.skip_link(i - self.net.n_nodes + 1)
+            self.links[i] = self.net.skip_link(i - N + 1) if i < 3 * N else self.net.up_skip_link(i - 3 * N + 1)
         return self.links[i]
 
     def _fill(self, kept: np.ndarray) -> None:
@@ -181,6 +188,8 @@ class _Links:
             streams, N, R = self.net._streams, self.net.n_nodes, self.net.R
             if N <= i < 2 * N:
                 self.states[i] = streams.skip_link_states(R, i - N + 1)
+            elif i >= 3 * N:
+                self.states[i] = streams.up_skip_link_states(R, i - 3 * N + 1)
             else:  # down link h = h, up link h = 2N + h: the network's links N + h (RunStreams)
                 self.states[i] = streams.link_states(R, i if i < N else i - N)
         return self.states[i]
@@ -278,7 +287,8 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32),
                np.full((R, N, Kmax) if asks else (1, 1, 1), np.nan), np.zeros((R, N), np.int64),
                np.zeros((R, N), np.int64))
-        surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64))
+        surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),
+                   links.up_skips)
         draws, last_seq, streak = links.draws(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
 
         def run(r0: int, r1: int):  # called within this pass of the loop: the arrays above
@@ -291,7 +301,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
 
         ended = threads.map_chunks(run, R)
         if all(status == ev.DONE for status, _ in ended):
-            return order[0].size, out, radio, stats, surveys[4:]
+            return order[0].size, out, radio, stats, surveys[4:6]
         if any(status == ev.INBOX_FULL for status, _ in ended):
             slots *= 2
         short: dict[int, tuple[int, int]] = {}  # link -> (lane, event) of the range that ran out soonest

@@ -8,16 +8,18 @@ per node, tick and realization, which reference (if any) the node takes; phase 2
 
 Event order is SimPy's: each node has one pending timeout; events are taken by (time, creation counter), a
 tick's timeout is created when the node finishes its previous tick and is due at now + (T[k] - now), exactly
-as ``env.timeout(t - env.now)`` schedules it.  Per tick of node n (lab motion: every node present from t = 0,
-node 1 is the top node):
-  * before ``filter_start``: nothing on the links (static bias window);
-  * the first tick from ``filter_start``: the filter starts (no update, no transmission);
-  * later ticks are running: the top node asks the encoder when the schedule says so (request and reply over
-    hop 0); the others take, per realization, the newest fresh packet that has arrived (sequence number above
-    the last one used, age <= ``max_update_age_s``; older fresh ones are dropped, duplicates and stale
-    packets counted);
+as ``env.timeout(t - env.now)`` schedules it.  Per tick of node n, as its plan says (:mod:`.tick_plan`):
+  * in its static window (``STATIC``): nothing on the links;
+  * the first tick from its filter start (``START``): the filter starts (no update, no transmission);
+  * holding during a tube insertion above it (``HOLD``): its inbox is emptied, nothing is sent;
+  * running: the top node of the time asks the encoder when the schedule says so (``ASK``: request and reply over
+    its own down link); the others (``RUN``) take, per realization, the newest fresh packet that has arrived
+    (sequence number above the last one used, age <= ``max_update_age_s``; older fresh ones are dropped,
+    duplicates and stale packets counted);
   * then a node that is not the bottom one transmits in the realizations that applied an update (or in all of
-    them with ``chain.forward = "every_tick"``), with the fallback to the next-but-one node.
+    them with ``chain.forward = "every_tick"`` on a running tick), with the fallback to the next-but-one node;
+  * a node at its survey tick sends its survey up, hop by hop to the top node and the ground station, past a
+    silent neighbour over the skip hop (:meth:`nodesim.chain.network.Network.send_survey`).
 Sequence numbers are the event counter: they increase with send time, which is all the selection compares.
 The order of the events is the same in every realization (:func:`event_order`, once), and realizations share
 no state, so :func:`run_events` runs them one after the other over that order, each with its state together in
@@ -186,20 +188,22 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
     (module docstring; disjoint ranges may run on parallel threads, each with its own ``need`` and ``cursor``
     (N,), the next survey of each node).  ``plan``
     (K, N): each tick's code (:mod:`.tick_plan`); ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
-    arrival (R, S), event (S,)): the surveys node n sends, ``first[n]`` .. ``stop[n] - 1`` in tick order, each at
-    its tick, up to the top node of its time and the ground station (arrival NaN where lost; its event's index,
-    written by realization 0); ``nodes_cfg`` = (processing_s,
+    arrival (R, S), event (S,), skip (N,)): the surveys node n sends, ``first[n]`` .. ``stop[n] - 1`` in tick
+    order, each at its tick, up to the top node of its time and the ground station (arrival NaN where lost; its
+    event's index, written by realization 0; ``skip[h]``: node h may send a survey its neighbour above left
+    unanswered on to node h - 2); ``nodes_cfg`` = (processing_s,
     max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures,
     min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age,
     src_node, src_tick (R, N, K), encoder t_read (R, N, K), stale (R, N), duplicate (R, N)); ``running`` is the
     same in every realization and written by realization 0.  Links: down link h = h (0: the top node's encoder
-    exchange when node 1 is on top; node n's when it is), skip link of node n = N + n, up link h = 2N + h.
+    exchange when node 1 is on top; node n's when it is), skip link of node n = N + n, up link h = 2N + h, survey skip link
+    of node h (up to h - 2) = 3N + h.
     Returns a status code."""
     N = T.shape[1]
     ev_node, ev_tick = order
     processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
-    s_first, s_stop, s_tick, s_top, s_arrival, s_event = surveys
+    s_first, s_stop, s_tick, s_top, s_arrival, s_event, s_skip = surveys
     running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
     i_count = inbox[4]
     surface = N
@@ -256,16 +260,32 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
                     s_event[s] = e
                 at = ready  # after the node's own exchange (a top node's encoder reply)
                 top = s_top[s]
-                for h in range(n, top - 1, -1):  # hop by hop up to the top node, then the ground station
+                h = n
+                while h >= top:  # hop by hop up to the top node, then the ground station
                     rx = h - 1 if h > top else surface
-                    got, at, _, short, _, _ = transfer(2 * N + h, r, at, h, rx, dead_at[rx] if h > top else np.inf,
-                                                       chan, draws, radio, stats, mac, bits, scratch)
+                    got, arr, end, short, _, _ = transfer(2 * N + h, r, at, h, rx, dead_at[rx] if h > top else np.inf,
+                                                          chan, draws, radio, stats, mac, bits, scratch)
                     if short:
                         need[0], need[1], need[2] = 2 * N + h, r, e
                         return NEED_DRAWS
+                    if got:
+                        at, h = arr, h - 1
+                        continue
+                    link = 3 * N + h  # unanswered: over the skip hop to the node two above (Network.up_skip_open)
+                    if math.isnan(end) or not s_skip[h] or h - 2 < top:
+                        break
+                    if margin[r, link, time_row(chan, link, t)] < fb_min_margin:
+                        break
+                    got, arr, end, short, _, _ = transfer(link, r, end, h, h - 2, dead_at[h - 2], chan, draws, radio,
+                                                          stats, mac, bits, scratch)
+                    if short:
+                        need[0], need[1], need[2] = link, r, e
+                        return NEED_DRAWS
                     if not got:
                         break
-                s_arrival[r, s] = at
+                    at, h = arr, h - 2
+                if h < top:
+                    s_arrival[r, s] = at
     return DONE
 
 

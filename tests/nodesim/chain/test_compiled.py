@@ -81,6 +81,8 @@ CASES.update({
     "drilling, up-hop outage": {**DRILL_LOSSY, "faults.link_outage": [{"hop": 3, "start_s": 200.0, "end_s": 330.0}]},
     "drilling, per-node clocks": {**DRILL_LOSSY, "chain.node": [{"id": 2, "clock_offset_s": 0.3, "clock_drift_ppm": 200.0},
                                                                 {"id": 4, "clock_drift_ppm": -150.0}]},
+    "drilling, dead node, surveys over the skip hop": {**DRILL, **{k: v for k, v in BASE.items() if k.startswith(
+        ("radio.", "mac."))}, "faults.node_failure": [{"node": 3, "at_s": 400.0}]},
     "pipe hops": {**LOSSY, "radio.kind": "pipe"},
     "no updates": {**BASE, "schedule.mode": "none"},
     "arbitrary schedule": {**LOSSY, "schedule.mode": "arbitrary",
@@ -219,7 +221,20 @@ def test_drilling_cases_exercise_insertions_holds_and_surveys():
     assert not all(n.running[n.t_s >= n.present_from_s].all() for n in run.nodes)  # holds
     for node, tl in zip(run.nodes, run.motion.timelines):  # each node was the encoder-aided top node in its time
         assert node.update_mask[:, node.t_s < tl.top_until_s].sum(axis=1).min() > 10
-    _, run = _both(CASES["drilling, dead node on the survey path"])
+    _, run = _both(CASES["drilling, dead node on the survey path"])  # simple links: no fallback
+    assert np.isnan(run.surveys[-1].arrival_s).all() and np.isfinite(run.surveys[0].arrival_s).all()
+
+
+def test_surveys_pass_a_dead_node_over_the_skip_hop():
+    """Node 3 dies at 400 s; the bottom node's last survey goes 4 -> (3 silent) -> skip hop -> 2 -> 1 -> ground on
+    both engines, where without the fallback it is lost at node 3."""
+    over = CASES["drilling, dead node, surveys over the skip hop"]
+    for run in _both(over):
+        last = run.surveys[-1]
+        assert last.packet.t_s > 400.0 and np.isfinite(last.arrival_s).all()
+        skip = [x for x in run.skip_links if x.channel.name == "skip4-2"]
+        assert skip and (skip[0].stats.delivered >= 1).all()
+    run = simulate_chain(Scenario().with_overrides(**{**over, "faults.fallback": False}))
     assert np.isnan(run.surveys[-1].arrival_s).all() and np.isfinite(run.surveys[0].arrival_s).all()
 
 
