@@ -266,7 +266,9 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
     fb = net.scenario.faults
     fallback = (np.array([n.fallback.enabled for n in net.nodes]), np.arange(N, 2 * N, dtype=np.int64),
                 fb.fallback_after_failures, fb.fallback_min_margin_db)
-    nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick)
+    asks = (plan == tp.ASK).any(axis=0)  # the nodes that ask the encoder at some tick: a t_read row each
+    ask_row = np.where(asks, np.cumsum(asks) - 1, -1).astype(np.int64)
+    nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick, ask_row)
     mac = np.array([float(m.enabled), m.max_retries, m.queue_length, m.turnaround_s, m.ack_timeout_s, m.duty_cycle])
     slots = INBOX_SLOTS
     L, radios = len(links.links), N + 1
@@ -282,10 +284,9 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         for a in bits[8:10]:
             a[:] = 0
         bits[10][:] = -1
-        asks = bool((plan == tp.ASK).any())
         out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
                np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32),
-               np.full((R, N, Kmax) if asks else (1, 1, 1), np.nan), np.zeros((R, N), np.int64),
+               np.full((R, max(int(asks.sum()), 1), Kmax), np.nan), np.zeros((R, N), np.int64),
                np.zeros((R, N), np.int64))
         surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),
                    links.up_skips)
@@ -301,7 +302,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
 
         ended = threads.map_chunks(run, R)
         if all(status == ev.DONE for status, _ in ended):
-            return order[0].size, out, radio, stats, surveys[4:6]
+            return order[0].size, out + (ask_row,), radio, stats, surveys[4:6]
         if any(status == ev.INBOX_FULL for status, _ in ended):
             slots *= 2
         short: dict[int, tuple[int, int]] = {}  # link -> (lane, event) of the range that ran out soonest
@@ -313,13 +314,14 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
             links.more(link, lane, (event + 1) / order[0].size)
 
 
-def _encoder_reads(net, n: int, t: np.ndarray, codes: np.ndarray, enc_t_read: np.ndarray):
+def _encoder_reads(net, n: int, t: np.ndarray, codes: np.ndarray, out: tuple):
     """Node index ``n``'s encoder replies at its ``ASK`` ticks: (those ticks, t_read (R, A), yaw (R, A), rate (R, A)),
     read at the request's arrival (at the tick itself where the request was lost)."""
     ask = np.flatnonzero(codes == tp.ASK)
     if not ask.size:
         return ask, None, None, None
-    t_read = enc_t_read[:, n, ask]
+    enc_t_read = out[5]
+    t_read = enc_t_read[:, out[8][n], ask]
     t_read = np.where(np.isnan(t_read), t[ask], t_read)
     yaw, rate = net.encoder.read_many(t_read)
     return ask, t_read, yaw, rate
@@ -330,7 +332,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     from nodesim.chain.estimator import new_filter
 
     node, sig = net.nodes[n], net.nodes[n].sig
-    running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
+    running, applied, age, src_node, src_tick, _, stale, dup, _ = out
     t, R = sig.t_s, net.R
     K = t.size
     k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
@@ -354,7 +356,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     # run_node takes a float and an integer filter's arrays (one compiled signature); the unused one is a stand-in
     fstate, fparams, istate, iparams = state, params, np.zeros((1, 5), np.int64), np.zeros(1, np.int64)
     enc_ref = np.zeros((R, K))
-    ask, t_read, yaw_enc, rate_enc = _encoder_reads(net, n, t, codes, enc_t_read)
+    ask, t_read, yaw_enc, rate_enc = _encoder_reads(net, n, t, codes, out)
     if ask.size:
         enc_ref[:, ask] = yaw_enc - rate_enc * (t_read - t[ask])
     src = src_node[:, n, :K]
@@ -398,7 +400,7 @@ def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
 def _run_node_firmware(net, n: int, out, k_end: int, codes: np.ndarray, bits) -> None:
     """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`)."""
     node, sig = net.nodes[n], net.nodes[n].sig
-    _, _, _, src_node, src_tick, enc_t_read, _, _ = out
+    src_node, src_tick = out[3], out[4]
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
     # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
@@ -407,7 +409,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, codes: np.ndarray, bits) ->
     at_tick = (codes == tp.STATIC) | (codes == tp.START)
     yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(net.encoder.read_many(t[at_tick])[0])
     enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    ask, t_read, y, rate = _encoder_reads(net, n, t, codes, enc_t_read)
+    ask, t_read, y, rate = _encoder_reads(net, n, t, codes, out)
     if ask.size:
         yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
         enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])

@@ -192,18 +192,20 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
     order, each at its tick, up to the top node of its time and the ground station (arrival NaN where lost; its
     event's index, written by realization 0; ``skip[h]``: node h may send a survey its neighbour above left
     unanswered on to node h - 2); ``nodes_cfg`` = (processing_s,
-    max_age_s, every_tick); ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures,
+    max_age_s, every_tick, ask_row (N,)); ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures,
     min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age,
-    src_node, src_tick (R, N, K), encoder t_read (R, N, K), stale (R, N), duplicate (R, N)); ``running`` is the
+    src_node, src_tick (R, N, K), encoder t_read (R, A, K) (row ``ask_row[n]`` of the A nodes that ever ask), stale
+    (R, N), duplicate (R, N)); ``running`` is the
     same in every realization and written by realization 0.  Links: down link h = h (0: the top node's encoder
     exchange when node 1 is on top; node n's when it is), skip link of node n = N + n, up link h = 2N + h, survey skip link
     of node h (up to h - 2) = 3N + h.
     Returns a status code."""
     N = T.shape[1]
     ev_node, ev_tick = order
-    processing_s, max_age_s, every_tick = nodes_cfg
+    processing_s, max_age_s, every_tick = nodes_cfg[:3]
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     s_first, s_stop, s_tick, s_top, s_arrival, s_event, s_skip = surveys
+    ask_row = nodes_cfg[3]
     running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
     i_count = inbox[4]
     surface = N
@@ -231,7 +233,7 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
                     need[0], need[1], need[2] = n, r, e
                     return NEED_DRAWS
                 t_read = arr if got else t
-                enc_t_read[r, n, k] = t_read
+                enc_t_read[r, ask_row[n], k] = t_read
                 if got:
                     have, arr2, end2, short, _, _ = transfer(n, r, end, surface, n, np.inf, chan, draws, radio,
                                                              stats, mac, bits, scratch)
