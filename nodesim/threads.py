@@ -1,4 +1,5 @@
-"""Realizations on worker threads: a compiled kernel run over disjoint ranges of realizations at once.
+"""Realizations (or, in a run of a few realizations, independent nodes) on worker threads: a compiled kernel run
+over disjoint ranges of realizations at once.
 
 Realizations share no state (every random draw, filter state, radio and packet is per realization), so a
 compiled kernel (numba, ``nogil=True``) run over realizations [0, r1) in one thread and [r1, R) in another
@@ -86,6 +87,18 @@ def _forget_pool_after_fork() -> None:  # a forked child has none of the parent'
 
 if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_forget_pool_after_fork)
+
+
+def map_nodes(work: Callable[[int], T], nodes: int, realizations: int) -> list[T]:
+    """``work(i)`` for i = 0 .. nodes - 1, the results in node order: on worker threads, one task per node, when
+    the realizations are too few for :func:`map_chunks` to split (a single-realization run), else in this thread
+    (each node's work then splits its realizations).  Nodes must be independent (their own draws and records):
+    the results are the same bits either way."""
+    workers = thread_count()
+    if workers == 1 or nodes < 2 or len(chunks(realizations, workers)) > 1:
+        return [work(i) for i in range(nodes)]
+    futures = [_executor(workers).submit(work, i) for i in range(nodes)]
+    return [f.result() for f in futures]
 
 
 def map_chunks(kernel: Callable[[int, int], T], realizations: int) -> list[T]:

@@ -2,15 +2,15 @@
 run that would exhaust the machine.
 
 A run keeps per-tick records of every node (what the tables and metrics are made from), so its peak resident
-memory grows with the node-ticks N (K + 1) (K = duration x firmware rate ticks per node) and, for the records that
-exist per realization, with R N (K + 1):
+memory grows with the node-ticks sum_n (K_n + 1) (K_n = (duration - the node's insertion) x firmware rate, the
+whole run on the lab profile) and, for the records that exist per realization, with R sum_n (K_n + 1):
 
-    peak ~ BASE + R N (K + 1) b_rt + N (K + 1) (b_t + b_event [SimPy engine])
+    peak ~ BASE + R sum_n (K_n + 1) b_rt + sum_n (K_n + 1) (b_t + b_event [SimPy engine])
 
 BASE is the process with nodesim, numpy, scipy and numba loaded; b_rt the per-realization bytes of a node-tick
 (the sensor counts and their SI forms, the filter's records, the fixed firmware's words and frames; larger with
 ``filter.implementation = "fixed"``); b_t the per-node-tick tables (``timeseries``, ``[output] timeseries = "all"``)
-built and written as Parquet after the run; b_event what the SimPy engine holds per node-tick (its drilling records).  The constants are measured peak
+built and written as Parquet after the run; b_event what the SimPy engine holds per node-tick (its event records).  The constants are measured peak
 RSS of whole ``nodesim run`` processes (``os.wait4``) on this project's 2-core machine on 2026-12-03, a least-squares fit
 over ten perf-chain sizes (1-400 nodes, 60-3600 s, 1-1000 realizations, both filter implementations; every size
 within 3 % of the fit) and the SimPy engine's drilling run (``scenarios/field/drilling_10_tubes.toml``);
@@ -56,13 +56,24 @@ class RunMemory:
                 f"+ base {self.base_bytes / 1e9:.3g} GB)")
 
 
+def node_tick_counts(scenario: Scenario) -> list[int]:
+    """Ticks of every node, node 1 first: (duration - its insertion) x the firmware rate (+ 1); a node ticks only
+    once it is in its tube (every node from t = 0 on the lab profile)."""
+    duration, rate, n = scenario.simulation.duration_s, scenario.chain.firmware_rate_hz, scenario.chain.nodes
+    if scenario.motion.kind != "drilling":
+        return [int(duration * rate) + 1] * n
+    from nodesim.motion.chain_motion import build_motion
+
+    return [int(max(duration - tl.present_from_s, 0.0) * rate) + 1 for tl in build_motion(scenario).timelines]
+
+
 def estimate_run_memory(scenario: Scenario, engine: str) -> RunMemory:
     """The peak memory of running ``scenario`` on ``engine`` ('compiled' or 'event'), module docstring."""
-    ticks = int(scenario.simulation.duration_s * scenario.chain.firmware_rate_hz) + 1
-    node_ticks = scenario.chain.nodes * ticks
+    ticks = node_tick_counts(scenario)
+    node_ticks = sum(ticks)
     R = scenario.simulation.realizations
     out, n = scenario.output, scenario.chain.nodes
-    kept = sum(out.keeps_node(i, n) for i in range(1, n + 1)) * ((ticks + out.tick_step - 1) // out.tick_step)
+    kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
     tables = kept * TICK_BYTES + (node_ticks * EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
     return RunMemory(BASE_BYTES, R * node_ticks * REALIZATION_TICK_BYTES[scenario.filter.implementation],
                      tables, node_ticks, R)

@@ -40,7 +40,7 @@ from nodesim.chain.node_process import ChainNode
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.packets import SurveyPacket, survey_frame, survey_sigmas_rad
 from nodesim.chain.radio import HopChannel, hop_channels
-from nodesim.chain.sensing import EncoderReader, node_signals
+from nodesim.chain.sensing import EncoderReader, node_signals, shared_truth
 from nodesim.errors import NodesimError
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
@@ -181,18 +181,11 @@ class Network:
         self.seq = 0
         schedule = schedule_of(scenario)
         self.nodes: list[ChainNode] = []
-        for i in range(c.nodes):
-            offset, drift = node_clock(scenario, i + 1)
-            t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
-            t = faults.stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
-            t = t[t >= self.motion.timelines[i].present_from_s]  # a node not yet in its tube does not tick
-            if t.size == 0:
-                steps = [(x.at_s, x.step_s) for x in scenario.faults.clock_step if x.node == i + 1]
-                raise NodesimError(
-                    f"node {i + 1} has no firmware tick inside the run [0, {scenario.simulation.duration_s} s] "
-                    f"(clock offset {offset} s, faults.clock_step (at_s, step_s) {steps}): lengthen "
-                    "simulation.duration_s or shorten chain.clock_stagger_s / chain.clock_offset_s / the step")
-            sig = node_signals(scenario, self.motion, streams, i, t, self.dt_s)
+        ticks = [self._tick_times(i) for i in range(c.nodes)]
+        shared_truth(scenario, self.motion, self.dt_s)  # the lab's per-sample truth, built once before the threads
+        signals = threads.map_nodes(lambda i: node_signals(scenario, self.motion, streams, i, ticks[i], self.dt_s),
+                                    c.nodes, R)
+        for i, (t, sig) in enumerate(zip(ticks, signals)):
             node = ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)
             node.radio = RadioState(R, mac.queue_length)
@@ -201,6 +194,22 @@ class Network:
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
         self._survey_hops: list[list] = []
+
+    def _tick_times(self, i: int) -> np.ndarray:
+        """Node index ``i``'s true tick times: its clock, its clock steps, from its insertion on (a node not yet in
+        its tube does not tick)."""
+        scenario = self.scenario
+        offset, drift = node_clock(scenario, i + 1)
+        t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
+        t = faults.stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
+        t = t[t >= self.motion.timelines[i].present_from_s]
+        if t.size == 0:
+            steps = [(x.at_s, x.step_s) for x in scenario.faults.clock_step if x.node == i + 1]
+            raise NodesimError(
+                f"node {i + 1} has no firmware tick inside the run [0, {scenario.simulation.duration_s} s] "
+                f"(clock offset {offset} s, faults.clock_step (at_s, step_s) {steps}): lengthen "
+                "simulation.duration_s or shorten chain.clock_stagger_s / chain.clock_offset_s / the step")
+        return t
 
     def skip_link(self, node_id: int) -> Link:
         """The fallback link from ``node_id`` to the node after its neighbour (built on first use; its draws
@@ -330,7 +339,7 @@ class Network:
     def result(self) -> ChainRun:
         """The run's records (after :meth:`run`, or after the compiled engine filled them in)."""
         points = self.scenario.filter.moving_average_points
-        runs = tuple(_node_run(n, points) for n in self.nodes)
+        runs = tuple(threads.map_nodes(lambda i: _node_run(self.nodes[i], points), self.n_nodes, self.R))
         skips = tuple(s for links in (self._skip_links, self._up_skip_links) for _, s in sorted(links.items())
                       if s.stats.frames.any())
         lost = sum(link.stats.lost for link in self.down_links + self.up_links + list(skips))

@@ -51,7 +51,7 @@ def node_signals(
     docstring)."""
     R = scenario.simulation.realizations
     imu = ChainImu.from_scenario(scenario)
-    c = node_counts(imu, motion, streams, node_index, t_s, dt_s, R, _shared_truth(scenario, imu, motion, dt_s))
+    c = node_counts(imu, motion, streams, node_index, t_s, dt_s, R, shared_truth(scenario, motion, dt_s))
     att = motion.attitude(node_index, t_s)
     n = c.samples.astype(float)
     force = np.divide(c.accel_counts, n[None, :, None])
@@ -77,11 +77,12 @@ def node_signals(
 _LAST_TRUTH: list = [None]  # (weakref to the motion, key, SampleTruth) of the latest run
 
 
-def _shared_truth(scenario: Scenario, imu: ChainImu, motion: ChainMotion, dt_s: float) -> SampleTruth | None:
+def shared_truth(scenario: Scenario, motion: ChainMotion, dt_s: float) -> SampleTruth | None:
     """The lab's per-sample truth, the same for every node (a rigid string), computed once per run on the grid of
     every sample a tick in [0, duration] can read (nodes whose samples fall outside compute their own)."""
     if scenario.motion.kind != "lab":
         return None
+    imu = ChainImu.from_scenario(scenario)
     key = (imu, dt_s, scenario.simulation.duration_s)
     last = _LAST_TRUTH[0]
     if last is not None and last[0]() is motion and last[1] == key:

@@ -194,7 +194,7 @@ class SampleTruth:
         sum_{first_k <= j < first_k + n_k} u_j = U[first_k + n_k] - U[first_k],   U[m] = sum_{j_lo <= j < m} u_j
 
     (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale).  One per run where every node
-    has the same attitude (the lab's rigid string, :func:`nodesim.chain.sensing._shared_truth`), else one per node."""
+    has the same attitude (the lab's rigid string, :func:`nodesim.chain.sensing.shared_truth`), else one per node."""
 
     def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0):
         self.j_lo, self.j_hi = j_lo, j_hi

@@ -73,6 +73,32 @@ def test_a_batch_on_threads_equals_the_batch_on_one_thread(monkeypatch, name):
     assert not np.array_equal(two.nodes[-1].yaw_est_rad[0], two.nodes[-1].yaw_est_rad[40])
 
 
+@pytest.mark.parametrize("name", ["lossy, shadowing, 5 nodes", "fixed, drilling, lossy hops"])
+def test_a_single_realization_on_node_threads_equals_one_thread(monkeypatch, name):
+    """R = 1: the nodes' sensor signals and surveys on worker threads (threads.map_nodes), same bits as one
+    thread, on both engines."""
+    for engine in ("compiled", "event"):
+        over = {**CASES, **FIXED}[name] | {"simulation.realizations": 1, "simulation.engine": engine}
+        scenario = Scenario().with_overrides(**over)
+        monkeypatch.setenv(threads.ENV, "1")
+        one = simulate_chain(scenario)
+        monkeypatch.setenv(threads.ENV, "2")
+        used = []
+        original = threads._executor
+        monkeypatch.setattr(threads, "_executor", lambda n: (used.append(n), original(n))[1])
+        two = simulate_chain(scenario)
+        monkeypatch.setattr(threads, "_executor", original)
+        assert used  # the nodes did go to the pool
+        assert_identical(one, two)
+
+
+def test_map_nodes_keeps_node_order_and_stays_inline_for_big_batches(monkeypatch):
+    monkeypatch.setenv(threads.ENV, "2")
+    assert threads.map_nodes(lambda i: i * i, 5, 1) == [0, 1, 4, 9, 16]
+    names = threads.map_nodes(lambda i: threading.current_thread().name, 2, 64)
+    assert names == [threading.current_thread().name] * 2  # 64 realizations split by map_chunks instead
+
+
 def test_limited_caps_the_calling_thread_only(monkeypatch):
     monkeypatch.setenv(threads.ENV, "4")
     seen = []

@@ -70,13 +70,16 @@ def test_the_estimate_is_the_measured_peak_within_a_factor_of_1p5(tmp_path, node
     assert 1 / 1.5 < estimate / peak < 1.5, (estimate / 2**20, peak / 2**20)
 
 
-def test_the_estimate_on_the_simpy_engine_drilling_run(tmp_path):
+@pytest.mark.parametrize("engine", ["event", "compiled"])
+def test_the_estimate_on_the_drilling_run(tmp_path, engine):
+    """Drilling: each node's ticks counted from its insertion (it does not tick before)."""
     text = DRILLING.read_text().replace("realizations = 4", "realizations = 2")
     path = tmp_path / "drilling.toml"
-    path.write_text(text)
+    path.write_text(text.replace(
+        "[simulation]", f'[simulation]\nengine = "{engine}"'))
     code, err, peak = _run(path, tmp_path / "out")
     assert code == 0, err
-    estimate = estimate_run_memory(load_scenario(path)[0], "event").total_bytes
+    estimate = estimate_run_memory(load_scenario(path)[0], engine).total_bytes
     assert 1 / 1.5 < estimate / peak < 1.5, (estimate / 2**20, peak / 2**20)
 
 
