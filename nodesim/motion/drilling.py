@@ -7,10 +7,15 @@ A pure model (no SimPy): the chain simulation consumes it.  The process, per tub
     -> survey stop (string static, every node surveys)
     -> tube insertion (string in the slips, static; a new tube with its node is screwed on at the top)
 
-Tube k (k = 0 at the bit) carries node k at ``node_offset_m`` above its lower end.  Tube 0 is in place
-at t = 0; node k >= 1 joins the chain when its insertion ends.  With the bit at measured depth D(t),
-node k sits at MD_k(t) = D(t) - k L - node_offset_m (negative = still above ground, where the attitude of
-the first station applies).  All tubes turn together (rigid, torsion-free string): the spin about the
+Tube k (k = 0 at the bit) carries node k at ``node_offset_m`` above its lower end.  Tubes 0 .. M - 1
+(``initial_tubes`` = M, default 1) are in the hole at t = 0; node k >= M joins the chain when its insertion
+ends.  With the bit at measured depth D(t), node k sits at MD_k(t) = D(t) - k L - node_offset_m (negative =
+still above ground, where the attitude of the first station applies).  The bit starts at
+D(0) = MD_0 + (M - 1) L (MD_0 the first wellpath station), so the top initial tube sits where tube 0 sits for
+M = 1; the programme drills tube M - 1 (the top initial one), stops for its survey, inserts tube M, ... up to
+tube N - 1 drilled and surveyed: N - M + 1 drills and survey stops, N - M insertions, so its length is
+
+    T = (N - M + 1) (L / ROP + t_survey) + (N - M) t_insertion.  All tubes turn together (rigid, torsion-free string): the spin about the
 tube axis is the same for every node, the string angle theta(t) is the integral of the rate profile.
 
 Yaw of node k (angle of body x from reference north, thesis digest 1.2):
@@ -27,6 +32,7 @@ moves along the great circle between station tangents (slerp), the standard form
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -142,6 +148,7 @@ class DrillingProcess:
     node_offset_m: float = 1.0
     n_tubes: int | None = None
     mount_yaw_rad: tuple[float, ...] | None = None  # per node; default 0
+    initial_tubes: int = 1  # tubes 0 .. initial_tubes - 1 in the hole at t = 0
 
     def __post_init__(self):
         for key in ("tube_length_m", "rop_m_s", "survey_stop_s", "insertion_s"):
@@ -160,6 +167,9 @@ class DrillingProcess:
             raise NodesimError(f"drilling: node_offset_m = {self.node_offset_m} must lie in [0, tube_length_m]")
         if self.n_tubes is not None and self.n_tubes < 1:
             raise NodesimError(f"drilling: n_tubes = {self.n_tubes} must be >= 1")
+        if not (isinstance(self.initial_tubes, numbers.Integral) and 1 <= self.initial_tubes <= self.tubes):
+            raise NodesimError(
+                f"drilling: initial_tubes = {self.initial_tubes} must be an integer in [1, {self.tubes}] (the tubes drilled)")
         if self.mount_yaw_rad is not None and len(self.mount_yaw_rad) < self.tubes:
             raise NodesimError(f"drilling: mount_yaw_rad has {len(self.mount_yaw_rad)} values, need one per tube ({self.tubes})")
 
@@ -171,9 +181,10 @@ class DrillingProcess:
         return max(1, int(math.ceil((self.wellpath.md_m[-1] - self.wellpath.md_m[0]) / self.tube_length_m - 1e-9)))
 
     def phases(self) -> tuple[Phase, ...]:
+        """Drill, survey stop and insertion phases in time order, from tube ``initial_tubes - 1`` on (module doc)."""
         out, t = [], 0.0
         drill_s = self.tube_length_m / self.rop_m_s
-        for k in range(self.tubes):
+        for k in range(self.initial_tubes - 1, self.tubes):
             out.append(Phase("drill", k, t, t + drill_s))
             t += drill_s
             out.append(Phase("survey", k, t, t + self.survey_stop_s))
@@ -188,8 +199,8 @@ class DrillingProcess:
         return self.phases()[-1].end_s
 
     def insertion_times_s(self) -> np.ndarray:
-        """Time node k joins: 0 for node 0, the end of its tube's insertion otherwise."""
-        return np.concatenate([[0.0], [p.end_s for p in self.phases() if p.name == "insertion"]])
+        """Time node k joins: 0 for the initial nodes k < initial_tubes, the end of its tube's insertion otherwise."""
+        return np.concatenate([np.zeros(self.initial_tubes), [p.end_s for p in self.phases() if p.name == "insertion"]])
 
     def survey_windows_s(self) -> list[tuple[float, float]]:
         return [(p.start_s, p.end_s) for p in self.phases() if p.name == "survey"]
@@ -208,9 +219,16 @@ class DrillingProcess:
                 phases.append(("stop", p.end_s - p.start_s, 0.0))
         return RateProfile.from_phases(phases, t0_s=0.0)
 
+    @property
+    def bit_start_md_m(self) -> float:
+        """Bit depth at t = 0: MD_0 + (initial_tubes - 1) L (module doc)."""
+        return float(self.wellpath.md_m[0] + (self.initial_tubes - 1) * self.tube_length_m)
+
     def bit_md_m(self, t_s) -> np.ndarray:
-        """Bit depth: advances at the rate of penetration while drilling, constant otherwise."""
-        knots_t, knots_d, depth = [0.0], [self.wellpath.md_m[0]], self.wellpath.md_m[0]
+        """Bit depth: from :attr:`bit_start_md_m`, advances at the rate of penetration while drilling, constant
+        otherwise."""
+        depth = self.bit_start_md_m
+        knots_t, knots_d = [0.0], [depth]
         for p in self.phases():
             if p.name == "drill":
                 depth += self.tube_length_m
