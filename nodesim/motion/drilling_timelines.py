@@ -103,17 +103,26 @@ def drilling_motion(scenario: Scenario) -> ChainMotion:
     t_in = proc.insertion_times_s()
 
     def attitude(index: int, t_s: np.ndarray) -> NodeAttitude:
+        """Node ``index``'s truth at chain times ``t_s``, O(K) (DrillingProcess.node_truth); at rest before insertion."""
         k = n - 1 - index
-        truth = proc.truth(np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))  # at rest before insertion
-        return NodeAttitude(truth.yaw_rad[k], truth.inclination_rad[k], truth.azimuth_rad[k])
+        truth = proc.node_truth(k, np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))
+        return NodeAttitude(truth.yaw_rad, truth.inclination_rad, truth.azimuth_rad)
 
-    stops = []
+    stops, bottom_stops = [], []
     for p in surveys:
         t_survey = lead + p.start_s + m.survey_settle_s
-        md = float(proc.truth(np.array([t_survey - lead])).md_m[0, 0])
-        stops.append(SurveyStop(p.tube + 1, md, n, lead + p.start_s, t_survey, lead + p.end_s))
+        if m.survey_nodes == "all":  # every node present at the stop, the bottom one first
+            ks = np.flatnonzero(t_in <= t_survey - lead)
+        else:
+            ks = np.zeros(1, dtype=int)
+        mds = proc.node_md_m(ks, proc.bit_md_m(t_survey - lead))
+        here = [SurveyStop(p.tube + 1, float(md), n - int(k), lead + p.start_s, t_survey, lead + p.end_s)
+                for k, md in zip(ks, mds)]
+        stops += here
+        bottom_stops.append(here[0])
     lo, hi = scenario.metrics.window_start_s, scenario.metrics.window_end_s
-    windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in stops if s.t_survey_s < hi and s.end_s > lo)
+    windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in bottom_stops
+                    if s.t_survey_s < hi and s.end_s > lo)  # one per station
     spin = ShiftedSpin(proc.rate_profile(), lead, lead + drills[-1].end_s)
     return ChainMotion(spin, attitude, tuple(timelines[i] for i in range(1, n + 1)), tuple(stops), windows,
                        spin.rotation_end_s)

@@ -103,6 +103,10 @@ class MotionSection(_Section):
         "chain.nodes): their nodes (ids N - initial_tubes + 1 .. N) average their gyros over [0, initial_static_s) "
         "and start their filters then, the top one is the encoder-aided top node until the first insertion; the "
         "bit starts (initial_tubes - 1) tube lengths below the first wellpath station")
+    survey_nodes: Literal["bottom", "all"] = Field(
+        "bottom", description="drilling: who surveys at a survey stop: the bottom node (the station's survey), or "
+        "every node present (each at its own MD, all sent up; the ground survey and the metric windows still "
+        "use the bottom node's, one per station)")
 
     def drilling_duration_s(self, tubes: int) -> float:
         """Length of the drilling programme of ``tubes`` tubes, ``initial_tubes`` = M of them in the hole at the
@@ -120,6 +124,8 @@ class MotionSection(_Section):
                 raise ValueError("wellpath is only used with kind = 'drilling'")
             if self.initial_tubes != 1:
                 raise ValueError(f"initial_tubes ({self.initial_tubes}) is only used with kind = 'drilling'")
+            if self.survey_nodes != "bottom":
+                raise ValueError(f"survey_nodes = {self.survey_nodes!r} is only used with kind = 'drilling'")
             return self
         if self.survey_settle_s >= self.survey_stop_s:
             raise ValueError(
