@@ -77,7 +77,8 @@ class MotionSection(_Section):
     after ``initial_static_s`` at rest: per tube, drill ``tube_length_m`` at ``rate_of_penetration_m_s``
     rotating at ``drill_rate_deg_s`` (ramps of ``ramp_s``), a survey stop of ``survey_stop_s``, then the next
     tube's insertion (``insertion_s``, string in the slips), along ``wellpath`` rows [MD m, inclination deg,
-    azimuth deg] (default: a straight hole at inclination_deg / azimuth_deg)."""
+    azimuth deg] (default: a straight hole at inclination_deg / azimuth_deg), with ``initial_tubes`` tubes in the
+    hole at the start (the programme drills the top one of them first) and ``survey_nodes`` surveying at each stop."""
 
     kind: Literal["lab", "drilling"] = "lab"
     inclination_deg: float = Field(2.0, ge=0.0, le=180.0)

@@ -292,3 +292,32 @@ def test_survey_nodes_all_sends_every_present_nodes_survey_and_the_ground_survey
     b.save(tmp_path / "all", plots=False)
     rows = list(csv.DictReader((tmp_path / "all" / "ground_survey.csv").open()))
     assert [float(r["md_m"]) for r in rows] == pytest.approx([2.0 * st - 1.0 for st in range(M, n + 1)])
+
+
+def test_drilling_day_scenario_is_its_programme_exactly_and_cheap_to_set_up():
+    """scenarios/perf/drilling_day_1000.toml: 1000 tubes, 785 in the hole, 24 h at 24 m/h: its duration is the
+    programme, 60 + 216 (2 / (24 / 3600) + 40) + 215 x 60 s; its motion builds in well under a second (the truth is
+    per node); its soil hops lose about 10 % of the estimate frames per try (the comment's PER, from the link
+    budget)."""
+    import time
+
+    from nodesim.chain.radio import hop_channels
+    from nodesim.rng.streams import RunStreams
+
+    s, _ = load_scenario(REPO / "scenarios" / "perf" / "drilling_day_1000.toml")
+    n, M = 1000, 785
+    assert (s.chain.nodes, s.motion.initial_tubes, s.filter.implementation) == (n, M, "fixed")
+    assert s.simulation.duration_s == s.motion.drilling_duration_s(n) == 60 + 216 * (2 / (24 / 3600) + 40) + 215 * 60
+    t0 = time.perf_counter()
+    motion = build_motion(s)
+    assert time.perf_counter() - t0 < 5.0  # ~0.1 s here; the whole-chain truth per survey stop took ~8 s
+    assert [st.station for st in motion.stops] == list(range(M, n + 1)) and {st.node_id for st in motion.stops} == {n}
+    assert motion.stops[-1].end_s == pytest.approx(s.simulation.duration_s)
+    assert motion.stops[0].md_m == pytest.approx(2.0 * M - 1.0) and motion.stops[-1].md_m == pytest.approx(2.0 * n - 1.0)
+    assert [tl.node_id for tl in motion.timelines if tl.present_from_s == 0.0] == list(range(n - M + 1, n + 1))
+    assert motion.timelines[n - M].top_until_s == pytest.approx(60.0 + 300.0 + 40.0)  # node 216 until tube 785's insertion
+    small = s.with_overrides(**{"chain.nodes": 3, "motion.initial_tubes": 1, "simulation.duration_s": 1300.0,
+                                "metrics.window_end_s": 1300.0})
+    hops, _ = hop_channels(small, RunStreams(seed=1, n_nodes=3), 1)
+    assert hops[0].per_data(np.array([100.0]))[0] == 0.0  # the cable to the top node
+    assert float(hops[1].per_data(np.array([100.0]))[0]) == pytest.approx(0.108, abs=0.001)
