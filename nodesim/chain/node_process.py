@@ -117,6 +117,7 @@ class ChainNode:
         self.ref_var = np.full((R, K), np.nan)
         self.running = np.zeros(K, dtype=bool)  # filter running and not holding
         self.stops = [s for s in net.motion.stops if s.node_id == node_id]
+        self.surveyed: set[tuple[int, int]] = set()  # (station, node id) of the surveys it sent
         self.opportunity = False  # a reference reached this tick (in any realization): the wave moves on
 
     def deliver(self, packet: EstimatePacket) -> None:
@@ -161,7 +162,8 @@ class ChainNode:
                 elif self.opportunity:
                     self._transmit(k, t, self.applied[:, k])
             for stop in self.stops:
-                if stop.t_survey_s <= t < stop.end_s and not any(p.station == stop.station for p in self.net.sent):
+                if stop.t_survey_s <= t < stop.end_s and (stop.station, stop.node_id) not in self.surveyed:
+                    self.surveyed.add((stop.station, stop.node_id))
                     self.net.send_survey(SurveyPacket(stop.station, stop.md_m, self.node_id, k, t,
                                                       np.ones(self.yaw.shape[0], dtype=bool)), self.ready_s)
 

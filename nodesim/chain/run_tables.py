@@ -2,14 +2,16 @@
 
 - ``timeseries.parquet`` (or ``.csv``, ``[output] format``): long (columnar) table, one row per node and tick of
   realization 0 (the nodes and ticks ``[output] timeseries`` keeps);
-- ``surveys.csv``: the survey table the ground station received, one row per realization and station
-  (values are the surveying node's moving-averaged inclination/azimuth at the survey tick, thesis eqs
-  1.1-1.3; sigma_A^2 = P_psipsi + sigma_f^2 / (M (g sin I)^2), sigma_I^2 = sigma_f^2 / (M g^2) with
+- ``surveys.csv``: the survey table the ground station received, one row per realization, station and
+  surveying node (the bottom node; every node present with ``motion.survey_nodes = "all"``) (values are the
+  surveying node's moving-averaged inclination/azimuth at the survey tick, thesis eqs 1.1-1.3;
+  sigma_A^2 = P_psipsi + sigma_f^2 / (M (g sin I)^2), sigma_I^2 = sigma_f^2 / (M g^2) with
   sigma_f the per-tick accelerometer noise and M the moving-average length,
   :func:`nodesim.chain.packets.survey_sigmas_rad`; the fixed firmware's as decoded from the survey frames the
   ground station received, sigmas in their 2^-20-turn words);
-- ``ground_survey.csv``: the surveys of realization 0 that reached the ground station, in the CSV form of
-  ``nodesim uncertainty`` (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
+- ``ground_survey.csv``: the bottom node's surveys (one per station) of realization 0 that reached the ground
+  station, in the CSV form of ``nodesim uncertainty``
+  (``md_m,inc_deg,azi_deg,time_s,sigma_inc_deg,sigma_azi_deg``);
 - ``hops.csv``: one row per hop: medium, mean path loss and margin, frames, delivery ratio, retransmissions,
   latency, queue drops (means over realizations; :func:`nodesim.chain.linkmetrics.hop_table`);
 - ``realizations.csv``: one row per realization with the per-realization metrics.
@@ -92,13 +94,19 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
                 ("true_azimuth_deg", rad_to_deg(true_azi)),
             ):
                 rows[key].append(value)
-    order = np.lexsort((np.asarray(rows["station"]), np.asarray(rows["realization"]))) if rows["station"] else []
+    order = np.lexsort((np.asarray(rows["node"]), np.asarray(rows["station"]), np.asarray(rows["realization"]))) \
+        if rows["station"] else []
     return {k: np.asarray(v)[order] for k, v in rows.items()}
 
 
 def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str, np.ndarray]:
-    """Realization ``r``'s received surveys in the ``nodesim uncertainty`` CSV columns."""
-    sel = (table["realization"] == r) & (table["received"] == 1)
+    """Realization ``r``'s received surveys in the ``nodesim uncertainty`` CSV columns: one per station, the
+    bottom node's (the station's largest node id; the other nodes' surveys of ``motion.survey_nodes = "all"``
+    stay in the survey table only)."""
+    station, node = np.asarray(table["station"], dtype=np.int64), np.asarray(table["node"], dtype=np.int64)
+    bottom = np.full(int(station.max(initial=0)) + 1, -1, dtype=np.int64)
+    np.maximum.at(bottom, station, node)
+    sel = (table["realization"] == r) & (table["received"] == 1) & (node == bottom[station])
     return {
         "md_m": table["md_m"][sel],
         "inc_deg": table["inclination_deg"][sel],

@@ -7,10 +7,15 @@ A pure model (no SimPy): the chain simulation consumes it.  The process, per tub
     -> survey stop (string static, every node surveys)
     -> tube insertion (string in the slips, static; a new tube with its node is screwed on at the top)
 
-Tube k (k = 0 at the bit) carries node k at ``node_offset_m`` above its lower end.  Tube 0 is in place
-at t = 0; node k >= 1 joins the chain when its insertion ends.  With the bit at measured depth D(t),
-node k sits at MD_k(t) = D(t) - k L - node_offset_m (negative = still above ground, where the attitude of
-the first station applies).  All tubes turn together (rigid, torsion-free string): the spin about the
+Tube k (k = 0 at the bit) carries node k at ``node_offset_m`` above its lower end.  Tubes 0 .. M - 1
+(``initial_tubes`` = M, default 1) are in the hole at t = 0; node k >= M joins the chain when its insertion
+ends.  With the bit at measured depth D(t), node k sits at MD_k(t) = D(t) - k L - node_offset_m (negative =
+still above ground, where the attitude of the first station applies).  The bit starts at
+D(0) = MD_0 + (M - 1) L (MD_0 the first wellpath station), so the top initial tube sits where tube 0 sits for
+M = 1; the programme drills tube M - 1 (the top initial one), stops for its survey, inserts tube M, ... up to
+tube N - 1 drilled and surveyed: N - M + 1 drills and survey stops, N - M insertions, so its length is
+
+    T = (N - M + 1) (L / ROP + t_survey) + (N - M) t_insertion.  All tubes turn together (rigid, torsion-free string): the spin about the
 tube axis is the same for every node, the string angle theta(t) is the integral of the rate profile.
 
 Yaw of node k (angle of body x from reference north, thesis digest 1.2):
@@ -27,7 +32,9 @@ moves along the great circle between station tangents (slerp), the standard form
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -73,6 +80,15 @@ class Wellpath:
     def _tangent(inc, azi) -> np.ndarray:
         return np.stack([np.sin(inc) * np.cos(azi), np.sin(inc) * np.sin(azi), np.cos(inc)], axis=-1)
 
+    @cached_property
+    def _intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Station unit tangents (S, 3), and per interval between stations the angle beta between its end
+        tangents and sin(beta) (S - 1,): computed once per wellpath."""
+        tangents = self._tangent(self.inclination_rad, self.azimuth_rad)
+        t1, t2 = tangents[:-1], tangents[1:]
+        beta = np.arccos(np.clip(np.sum(t1 * t2, axis=-1), -1.0, 1.0))
+        return tangents, beta, np.sin(beta)
+
     def attitude_at(self, md_m) -> tuple[np.ndarray, np.ndarray]:
         """(inclination, azimuth) in rad at measured depths (clipped to the station range)."""
         md = np.clip(np.asarray(md_m, dtype=float), self.md_m[0], self.md_m[-1])
@@ -80,10 +96,9 @@ class Wellpath:
             return np.full_like(md, self.inclination_rad[0]), np.full_like(md, self.azimuth_rad[0])
         k = np.clip(np.searchsorted(self.md_m, md, side="right") - 1, 0, self.md_m.size - 2)
         u = (md - self.md_m[k]) / (self.md_m[k + 1] - self.md_m[k])
-        t1 = self._tangent(self.inclination_rad[k], self.azimuth_rad[k])
-        t2 = self._tangent(self.inclination_rad[k + 1], self.azimuth_rad[k + 1])
-        beta = np.arccos(np.clip(np.sum(t1 * t2, axis=-1), -1.0, 1.0))
-        sb = np.sin(beta)
+        tangents, betas, sines = self._intervals
+        t1, t2 = tangents[k], tangents[k + 1]
+        beta, sb = betas[k], sines[k]
         small = sb < 1e-12
         w1 = np.where(small, 1.0 - u, np.sin((1.0 - u) * beta) / np.where(small, 1.0, sb))
         w2 = np.where(small, u, np.sin(u * beta) / np.where(small, 1.0, sb))
@@ -95,14 +110,20 @@ class Wellpath:
         azi = np.where(horizontal, np.arctan2(t[..., 1], t[..., 0]), azi_station)
         return inc, np.remainder(azi, 2.0 * math.pi)
 
-    def twist_rad(self, md_m) -> np.ndarray:
-        """Gamma(MD) = int (1 - cos I) dA from the first station (see module doc), on a 5 cm grid."""
+    @cached_property
+    def _twist_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """(MD grid, Gamma on it): trapezoids of (1 - cos I) dA on a TWIST_STEP_M grid (computed once per wellpath)."""
         n = max(2, int(math.ceil((self.md_m[-1] - self.md_m[0]) / TWIST_STEP_M)) + 1)
         grid = np.linspace(self.md_m[0], self.md_m[-1], n)
         inc, azi = self.attitude_at(grid)
         a = np.unwrap(azi)
         w = 1.0 - np.cos(inc)
         gamma = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(a))])
+        return grid, gamma
+
+    def twist_rad(self, md_m) -> np.ndarray:
+        """Gamma(MD) = int (1 - cos I) dA from the first station (see module doc), linear on a 5 cm grid."""
+        grid, gamma = self._twist_grid
         return np.interp(np.asarray(md_m, dtype=float), grid, gamma)
 
 
@@ -116,7 +137,8 @@ class Phase:
 
 @dataclass(frozen=True)
 class NodeTruth:
-    """True state of every node at times t: arrays (N nodes, K times); NaN where a node is not yet inserted."""
+    """True state of nodes at times t: arrays (N nodes, K times) from :meth:`DrillingProcess.truth`, (K,) for one
+    node from :meth:`DrillingProcess.node_truth`; NaN where a node is not yet inserted."""
 
     t_s: np.ndarray
     present: np.ndarray
@@ -142,6 +164,7 @@ class DrillingProcess:
     node_offset_m: float = 1.0
     n_tubes: int | None = None
     mount_yaw_rad: tuple[float, ...] | None = None  # per node; default 0
+    initial_tubes: int = 1  # tubes 0 .. initial_tubes - 1 in the hole at t = 0
 
     def __post_init__(self):
         for key in ("tube_length_m", "rop_m_s", "survey_stop_s", "insertion_s"):
@@ -160,6 +183,9 @@ class DrillingProcess:
             raise NodesimError(f"drilling: node_offset_m = {self.node_offset_m} must lie in [0, tube_length_m]")
         if self.n_tubes is not None and self.n_tubes < 1:
             raise NodesimError(f"drilling: n_tubes = {self.n_tubes} must be >= 1")
+        if not (isinstance(self.initial_tubes, numbers.Integral) and 1 <= self.initial_tubes <= self.tubes):
+            raise NodesimError(
+                f"drilling: initial_tubes = {self.initial_tubes} must be an integer in [1, {self.tubes}] (the tubes drilled)")
         if self.mount_yaw_rad is not None and len(self.mount_yaw_rad) < self.tubes:
             raise NodesimError(f"drilling: mount_yaw_rad has {len(self.mount_yaw_rad)} values, need one per tube ({self.tubes})")
 
@@ -170,10 +196,11 @@ class DrillingProcess:
             return self.n_tubes
         return max(1, int(math.ceil((self.wellpath.md_m[-1] - self.wellpath.md_m[0]) / self.tube_length_m - 1e-9)))
 
-    def phases(self) -> tuple[Phase, ...]:
+    @cached_property
+    def _phases(self) -> tuple[Phase, ...]:
         out, t = [], 0.0
         drill_s = self.tube_length_m / self.rop_m_s
-        for k in range(self.tubes):
+        for k in range(self.initial_tubes - 1, self.tubes):
             out.append(Phase("drill", k, t, t + drill_s))
             t += drill_s
             out.append(Phase("survey", k, t, t + self.survey_stop_s))
@@ -183,22 +210,34 @@ class DrillingProcess:
                 t += self.insertion_s
         return tuple(out)
 
+    def phases(self) -> tuple[Phase, ...]:
+        """Drill, survey stop and insertion phases in time order, from tube ``initial_tubes - 1`` on (module doc;
+        computed once per process)."""
+        return self._phases
+
     @property
     def duration_s(self) -> float:
-        return self.phases()[-1].end_s
+        return self._phases[-1].end_s
+
+    @cached_property
+    def _insertion_times_s(self) -> np.ndarray:
+        t_in = np.concatenate([np.zeros(self.initial_tubes), [p.end_s for p in self._phases if p.name == "insertion"]])
+        t_in.setflags(write=False)
+        return t_in
 
     def insertion_times_s(self) -> np.ndarray:
-        """Time node k joins: 0 for node 0, the end of its tube's insertion otherwise."""
-        return np.concatenate([[0.0], [p.end_s for p in self.phases() if p.name == "insertion"]])
+        """Time node k joins: 0 for the initial nodes k < initial_tubes, the end of its tube's insertion otherwise
+        (read-only, computed once per process)."""
+        return self._insertion_times_s
 
     def survey_windows_s(self) -> list[tuple[float, float]]:
-        return [(p.start_s, p.end_s) for p in self.phases() if p.name == "survey"]
+        return [(p.start_s, p.end_s) for p in self._phases if p.name == "survey"]
 
-    def rate_profile(self) -> RateProfile:
-        """Spin of the string: ramps and holds while drilling, zero otherwise."""
+    @cached_property
+    def _rate_profile(self) -> RateProfile:
         phases, w = [], self.drilling_rate_rad_s
         drill_s = self.tube_length_m / self.rop_m_s
-        for p in self.phases():
+        for p in self._phases:
             if p.name == "drill":
                 if self.ramp_s > 0:
                     phases += [("ramp", self.ramp_s, w), ("hold", drill_s - 2 * self.ramp_s, w), ("ramp", self.ramp_s, 0.0)]
@@ -208,45 +247,80 @@ class DrillingProcess:
                 phases.append(("stop", p.end_s - p.start_s, 0.0))
         return RateProfile.from_phases(phases, t0_s=0.0)
 
-    def bit_md_m(self, t_s) -> np.ndarray:
-        """Bit depth: advances at the rate of penetration while drilling, constant otherwise."""
-        knots_t, knots_d, depth = [0.0], [self.wellpath.md_m[0]], self.wellpath.md_m[0]
-        for p in self.phases():
+    def rate_profile(self) -> RateProfile:
+        """Spin of the string: ramps and holds while drilling, zero otherwise (computed once per process)."""
+        return self._rate_profile
+
+    @property
+    def bit_start_md_m(self) -> float:
+        """Bit depth at t = 0: MD_0 + (initial_tubes - 1) L (module doc)."""
+        return float(self.wellpath.md_m[0] + (self.initial_tubes - 1) * self.tube_length_m)
+
+    @cached_property
+    def _bit_knots(self) -> tuple[np.ndarray, np.ndarray]:
+        depth = self.bit_start_md_m
+        knots_t, knots_d = [0.0], [depth]
+        for p in self._phases:
             if p.name == "drill":
                 depth += self.tube_length_m
             knots_t.append(p.end_s)
             knots_d.append(depth)
+        return np.array(knots_t), np.array(knots_d)
+
+    def bit_md_m(self, t_s) -> np.ndarray:
+        """Bit depth: from :attr:`bit_start_md_m`, advances at the rate of penetration while drilling, constant
+        otherwise (piecewise linear in t; knots computed once per process)."""
+        knots_t, knots_d = self._bit_knots
         return np.interp(np.asarray(t_s, dtype=float), knots_t, knots_d)
+
+    def node_md_m(self, k, bit_md_m) -> np.ndarray:
+        """MD of node(s) ``k`` with the bit at ``bit_md_m``: MD_k = D - (k L + node_offset_m) (module doc);
+        broadcasts ``k`` against ``bit_md_m``."""
+        return bit_md_m - (np.asarray(k) * self.tube_length_m + self.node_offset_m)
 
     def node_count(self, t_s) -> np.ndarray:
         """Nodes in the chain at times t."""
-        return np.searchsorted(self.insertion_times_s(), np.asarray(t_s, dtype=float), side="right")
+        return np.searchsorted(self._insertion_times_s, np.asarray(t_s, dtype=float), side="right")
+
+    @cached_property
+    def _node_starts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per node k, at its insertion time t_k: (t_k, theta(t_k), Gamma(MD_k(t_k)), mounting yaw psi_k0)."""
+        n, wp, t_in = self.tubes, self.wellpath, self._insertion_times_s
+        md_in = self.node_md_m(np.arange(n), self.bit_md_m(t_in))
+        gamma_in = wp.twist_rad(np.maximum(md_in, wp.md_m[0]))
+        mount = np.zeros(n) if self.mount_yaw_rad is None else np.asarray(self.mount_yaw_rad[:n], dtype=float)
+        return t_in, self._rate_profile.angle_rad(t_in), gamma_in, mount
+
+    def _node_state(self, k: int, t: np.ndarray, bit: np.ndarray, theta: np.ndarray):
+        """Node k's (present, md, inclination, azimuth, yaw, toolface) at times t, the bit depth D(t) and the string
+        angle theta(t) given (module doc; NaN where not yet inserted): O(K) for K times."""
+        wp = self.wellpath
+        t_in, theta_in, gamma_in, mount = self._node_starts
+        present = t >= t_in[k]
+        md = self.node_md_m(k, bit)
+        md_clipped = np.maximum(md, wp.md_m[0])
+        inc, azi = wp.attitude_at(md_clipped)
+        yaw = mount[k] + theta - theta_in[k] + (wp.twist_rad(md_clipped) - gamma_in[k])
+        nan = np.where(present, 1.0, np.nan)
+        return present, md * nan, inc * nan, azi * nan, yaw * nan, np.remainder(azi - yaw, 2.0 * math.pi) * nan
+
+    def node_truth(self, k: int, t_s) -> NodeTruth:
+        """True state of node ``k`` (0 = bit) at times ``t_s``: arrays (K,) (module doc); equals ``truth(t_s)``'s
+        row k bit for bit, at O(K) cost (the process's phases, rate profile, insertion states and the wellpath's
+        twist grid are computed once per process)."""
+        if not 0 <= k < self.tubes:
+            raise NodesimError(f"drilling: node {k} does not exist (allowed: 0..{self.tubes - 1})")
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        rp = self._rate_profile
+        state = self._node_state(k, t, self.bit_md_m(t), rp.angle_rad(t))
+        return NodeTruth(t, *state, spin_rate_rad_s=rp.rate_rad_s(t))
 
     def truth(self, t_s) -> NodeTruth:
-        """True MD, inclination, azimuth, yaw and toolface of every node at times ``t_s`` (see module doc)."""
+        """True MD, inclination, azimuth, yaw and toolface of every node at times ``t_s`` (see module doc): arrays
+        (N, K), row k that of :meth:`node_truth`."""
         t = np.atleast_1d(np.asarray(t_s, dtype=float))
-        n = self.tubes
-        t_in = self.insertion_times_s()
-        k = np.arange(n)[:, None]
-        present = t[None, :] >= t_in[:, None]
-        offset = k * self.tube_length_m + self.node_offset_m
-        md = self.bit_md_m(t)[None, :] - offset
-        md_in = self.bit_md_m(t_in)[:, None] - offset
-        wp = self.wellpath
-        inc, azi = wp.attitude_at(np.maximum(md, wp.md_m[0]))
-        rp = self.rate_profile()
-        theta = rp.angle_rad(t)[None, :]
-        mount = np.zeros(n) if self.mount_yaw_rad is None else np.asarray(self.mount_yaw_rad[:n], dtype=float)
-        gamma = wp.twist_rad(np.maximum(md, wp.md_m[0])) - wp.twist_rad(np.maximum(md_in, wp.md_m[0]))
-        yaw = mount[:, None] + theta - rp.angle_rad(t_in)[:, None] + gamma
-        nan = np.where(present, 1.0, np.nan)
-        return NodeTruth(
-            t_s=t,
-            present=present,
-            md_m=md * nan,
-            inclination_rad=inc * nan,
-            azimuth_rad=azi * nan,
-            yaw_rad=yaw * nan,
-            toolface_rad=np.remainder(azi - yaw, 2.0 * math.pi) * nan,
-            spin_rate_rad_s=rp.rate_rad_s(t),
-        )
+        rp = self._rate_profile
+        bit, theta = self.bit_md_m(t), rp.angle_rad(t)
+        rows = [self._node_state(k, t, bit, theta) for k in range(self.tubes)]
+        present, md, inc, azi, yaw, toolface = (np.stack(col) for col in zip(*rows))
+        return NodeTruth(t, present, md, inc, azi, yaw, toolface, rp.rate_rad_s(t))

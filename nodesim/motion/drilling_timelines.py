@@ -1,18 +1,24 @@
 """The drilling process as the chain sees it: :class:`nodesim.motion.drilling.DrillingProcess` (tube insertions
 along a wellpath, true attitude of every node) turned into node timelines and survey stops (thesis 2.7, 4.1).
 
-Chain time t = process time + ``initial_static_s``: the string first rests so that the bit node (tube 0)
-can average its gyro for its initial bias.  Then, per tube k (process phases): drill one tube length while
-rotating, a survey stop, then the insertion of tube k + 1 at the top (string in the slips).  Mapping:
-process node k (0 = bit) is chain node id N - k (1 = top of the final chain).
-  - node N: present from 0, static window [0, initial_static_s);
-  - node N - k (k >= 1): present from the start of its tube's insertion; the insertion is its static
+Chain time t = process time + ``initial_static_s``: the string first rests so that the nodes in the hole
+(the ``initial_tubes`` = M tubes 0 .. M - 1, default only the bit's tube 0) can average their gyros for their
+initial bias.  Then, per tube k = M - 1 .. N - 1 (process phases): drill one tube length while rotating, a
+survey stop, then the insertion of tube k + 1 at the top (string in the slips).  Mapping: process node k
+(0 = bit) is chain node id N - k (1 = top of the final chain).
+  - nodes N .. N - M + 1 (the initial tubes): present from 0, static window [0, initial_static_s), filters
+    started at initial_static_s as after an insertion; node N - M + 1 is the top (encoder-aided) node until
+    the first insertion starts, the others are never the top node;
+  - node N - k (k >= M): present from the start of its tube's insertion; the insertion is its static
     window (the new node averages its gyro), and its filter starts from an encoder yaw when the insertion
     ends (thesis 2.7: the new top tube gets an encoder update first);
   - every node already in the string holds its state during later insertions (thesis 2.7: "saves psi
     during the insertion transition and resumes from it afterwards");
-  - survey stop of tube k: station k + 1; the bottom node's survey is taken ``survey_settle_s`` after the
-    stop starts (the 32-point moving average has settled) and sent up; its MD is the bottom node's MD.
+  - survey stop of tube k: station k + 1 (the first is station M); the bottom node's survey is taken
+    ``survey_settle_s`` after the stop starts (the 32-point moving average has settled) and sent up; its MD
+    is the bottom node's MD.  With ``motion.survey_nodes = "all"`` every node present at the stop takes its
+    survey at that time too (one :class:`SurveyStop` per node, each with its own MD); the metric windows
+    are one per station either way.
 Mounting yaws are set so that every node's yaw equals the string angle theta at its insertion (a rigid,
 aligned string: in a straight hole all nodes share the encoder's angle; a curved hole adds the geometric
 twist of :mod:`nodesim.motion.drilling`).
@@ -67,41 +73,56 @@ def drilling_process(scenario: Scenario) -> DrillingProcess:
         insertion_s=m.insertion_s,
         node_offset_m=m.node_offset_m,
         n_tubes=n,
+        initial_tubes=m.initial_tubes,
     )
     mounts = proc.rate_profile().angle_rad(proc.insertion_times_s())
     return replace(proc, mount_yaw_rad=tuple(float(x) for x in mounts))
 
 
 def drilling_motion(scenario: Scenario) -> ChainMotion:
+    """The chain's view of the scenario's drilling process (module doc): timelines, attitudes, survey stops."""
     m = scenario.motion
     n = scenario.chain.nodes
     lead = m.initial_static_s
     proc = drilling_process(scenario)
+    first = proc.initial_tubes  # process nodes 0 .. first - 1 are in the hole at t = 0
     phases = proc.phases()
-    insertions = [p for p in phases if p.name == "insertion"]  # tube k = 1 .. n-1
+    insertions = [p for p in phases if p.name == "insertion"]  # tube k = first .. n-1
     surveys = [p for p in phases if p.name == "survey"]
     drills = [p for p in phases if p.name == "drill"]
-    ins_start = [0.0] + [lead + p.start_s for p in insertions]  # by process node k
-    ins_end = [lead] + [lead + p.end_s for p in insertions]
+    ins_start = [0.0] * first + [lead + p.start_s for p in insertions]  # by process node k
+    ins_end = [lead] * first + [lead + p.end_s for p in insertions]
     timelines = {}
     for k in range(n):
-        holds = tuple((ins_start[j], ins_end[j]) for j in range(k + 1, n))
-        top_until = ins_start[k + 1] if k + 1 < n else math.inf
+        holds = tuple((ins_start[j], ins_end[j]) for j in range(max(k + 1, first), n))
+        if k < first - 1:
+            top_until = 0.0  # an initial tube below the top one: never the top node
+        else:
+            top_until = ins_start[k + 1] if k + 1 < n else math.inf
         timelines[n - k] = NodeTimeline(n - k, ins_start[k], ins_end[k], holds, top_until)
     t_in = proc.insertion_times_s()
 
     def attitude(index: int, t_s: np.ndarray) -> NodeAttitude:
+        """Node ``index``'s truth at chain times ``t_s``, O(K) (DrillingProcess.node_truth); at rest before insertion."""
         k = n - 1 - index
-        truth = proc.truth(np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))  # at rest before insertion
-        return NodeAttitude(truth.yaw_rad[k], truth.inclination_rad[k], truth.azimuth_rad[k])
+        truth = proc.node_truth(k, np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))
+        return NodeAttitude(truth.yaw_rad, truth.inclination_rad, truth.azimuth_rad)
 
-    stops = []
+    stops, bottom_stops = [], []
     for p in surveys:
         t_survey = lead + p.start_s + m.survey_settle_s
-        md = float(proc.truth(np.array([t_survey - lead])).md_m[0, 0])
-        stops.append(SurveyStop(p.tube + 1, md, n, lead + p.start_s, t_survey, lead + p.end_s))
+        if m.survey_nodes == "all":  # every node present at the stop, the bottom one first
+            ks = np.flatnonzero(t_in <= t_survey - lead)
+        else:
+            ks = np.zeros(1, dtype=int)
+        mds = proc.node_md_m(ks, proc.bit_md_m(t_survey - lead))
+        here = [SurveyStop(p.tube + 1, float(md), n - int(k), lead + p.start_s, t_survey, lead + p.end_s)
+                for k, md in zip(ks, mds)]
+        stops += here
+        bottom_stops.append(here[0])
     lo, hi = scenario.metrics.window_start_s, scenario.metrics.window_end_s
-    windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in stops if s.t_survey_s < hi and s.end_s > lo)
+    windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in bottom_stops
+                    if s.t_survey_s < hi and s.end_s > lo)  # one per station
     spin = ShiftedSpin(proc.rate_profile(), lead, lead + drills[-1].end_s)
     return ChainMotion(spin, attitude, tuple(timelines[i] for i in range(1, n + 1)), tuple(stops), windows,
                        spin.rotation_end_s)

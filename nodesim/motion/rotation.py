@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -149,12 +150,21 @@ class RateProfile:
             t, rate = t + duration, r1
         return cls(tuple(segs))
 
-    def _arrays(self):
+    @cached_property
+    def _segment_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(starts, ends, start rates, end rates, angle turned before each segment), computed once per profile."""
         s = np.array([g.start_s for g in self.segments])
         e = np.array([g.end_s for g in self.segments])
         r0 = np.array([g.rate0_rad_s for g in self.segments])
         r1 = np.array([g.rate1_rad_s for g in self.segments])
-        return s, e, r0, r1
+        full = 0.5 * (r0 + r1) * (e - s)
+        before = np.concatenate([[0.0], np.cumsum(full)])
+        for a in (s, e, r0, r1, before):
+            a.setflags(write=False)
+        return s, e, r0, r1, before
+
+    def _arrays(self):
+        return self._segment_arrays[:4]
 
     def rate_rad_s(self, t_s) -> np.ndarray:
         t = np.asarray(t_s, dtype=float)
@@ -171,9 +181,7 @@ class RateProfile:
         t = np.asarray(t_s, dtype=float)
         if not self.segments:
             return np.zeros_like(t)
-        s, e, r0, r1 = self._arrays()
-        full = 0.5 * (r0 + r1) * (e - s)
-        before = np.concatenate([[0.0], np.cumsum(full)])
+        s, e, r0, r1, before = self._segment_arrays
         i = np.clip(np.searchsorted(s, t, side="right") - 1, 0, s.size - 1)
         dt = np.clip(t - s[i], 0.0, e[i] - s[i])
         slope = (r1[i] - r0[i]) / (e[i] - s[i])

@@ -15,10 +15,14 @@ per node and the survey stops.
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable, Protocol
 
 import numpy as np
+
+from nodesim.errors import NodesimError
 
 
 class Rotation(Protocol):
@@ -41,8 +45,20 @@ class NodeTimeline:
     holds: tuple[tuple[float, float], ...]  # [start, end): tube insertions above it, state saved and resumed
     top_until_s: float  # it is the top node (encoder-aided) from present_from_s until this time
 
+    def __post_init__(self):
+        for i, (a, b) in enumerate(self.holds):
+            if not a < b or (i and a < self.holds[i - 1][1]):
+                raise NodesimError(f"node {self.node_id}: holds[{i}] = ({a}, {b}) must be a non-empty interval after "
+                                   f"the previous one (holds are in time order and do not overlap)")
+
+    @cached_property
+    def _hold_starts(self) -> list[float]:
+        return [a for a, _ in self.holds]
+
     def holding(self, t_s: float) -> bool:
-        return any(a <= t_s < b for a, b in self.holds)
+        """t_s inside one of the holds [a, b): the last hold starting at or before t_s (bisection, O(log holds))."""
+        i = bisect_right(self._hold_starts, t_s) - 1
+        return i >= 0 and t_s < self.holds[i][1]
 
     def is_top(self, t_s: float) -> bool:
         return self.present_from_s <= t_s < self.top_until_s
@@ -50,7 +66,8 @@ class NodeTimeline:
 
 @dataclass(frozen=True)
 class SurveyStop:
-    """A survey station: the bottom node's survey is taken at ``t_survey_s`` and sent up."""
+    """A survey at a survey station: node ``node_id`` (the bottom node, or with ``motion.survey_nodes = "all"``
+    each node present at the stop) takes its survey at ``t_survey_s``, at MD ``md_m``, and sends it up."""
 
     station: int
     md_m: float

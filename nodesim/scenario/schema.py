@@ -77,7 +77,8 @@ class MotionSection(_Section):
     after ``initial_static_s`` at rest: per tube, drill ``tube_length_m`` at ``rate_of_penetration_m_s``
     rotating at ``drill_rate_deg_s`` (ramps of ``ramp_s``), a survey stop of ``survey_stop_s``, then the next
     tube's insertion (``insertion_s``, string in the slips), along ``wellpath`` rows [MD m, inclination deg,
-    azimuth deg] (default: a straight hole at inclination_deg / azimuth_deg)."""
+    azimuth deg] (default: a straight hole at inclination_deg / azimuth_deg), with ``initial_tubes`` tubes in the
+    hole at the start (the programme drills the top one of them first) and ``survey_nodes`` surveying at each stop."""
 
     kind: Literal["lab", "drilling"] = "lab"
     inclination_deg: float = Field(2.0, ge=0.0, le=180.0)
@@ -98,17 +99,34 @@ class MotionSection(_Section):
     initial_static_s: float = Field(60.0, gt=0.0, le=3600.0, description="drilling: rest before the first tube")
     node_offset_m: float = Field(1.0, ge=0.0, le=100.0, description="drilling: node height above its tube's end")
     wellpath: list[list[float]] = Field(default_factory=list, description="drilling: [MD m, inc deg, azi deg] rows")
+    initial_tubes: int = Field(
+        1, ge=1, le=100_000, description="drilling: tubes already in the hole at t = 0 (1 <= initial_tubes <= "
+        "chain.nodes): their nodes (ids N - initial_tubes + 1 .. N) average their gyros over [0, initial_static_s) "
+        "and start their filters then, the top one is the encoder-aided top node until the first insertion; the "
+        "bit starts (initial_tubes - 1) tube lengths below the first wellpath station")
+    survey_nodes: Literal["bottom", "all"] = Field(
+        "bottom", description="drilling: who surveys at a survey stop: the bottom node (the station's survey), or "
+        "every node present (each at its own MD, all sent up; the ground survey and the metric windows still "
+        "use the bottom node's, one per station)")
 
     def drilling_duration_s(self, tubes: int) -> float:
-        """Length of the drilling programme of ``tubes`` tubes."""
+        """Length of the drilling programme of ``tubes`` tubes, ``initial_tubes`` = M of them in the hole at the
+        start (:class:`nodesim.motion.drilling.DrillingProcess`): T = initial_static_s + (N - M + 1)
+        (L / ROP + survey_stop_s) + (N - M) insertion_s, a tube taking its drilling at the rate of penetration,
+        its survey stop and the insertion of the next."""
         drill = self.tube_length_m / self.rate_of_penetration_m_s
-        return self.initial_static_s + tubes * (drill + self.survey_stop_s) + (tubes - 1) * self.insertion_s
+        drilled = tubes - self.initial_tubes + 1
+        return self.initial_static_s + drilled * (drill + self.survey_stop_s) + (drilled - 1) * self.insertion_s
 
     @model_validator(mode="after")
     def _drilling_consistent(self) -> "MotionSection":
         if self.kind != "drilling":
             if self.wellpath:
                 raise ValueError("wellpath is only used with kind = 'drilling'")
+            if self.initial_tubes != 1:
+                raise ValueError(f"initial_tubes ({self.initial_tubes}) is only used with kind = 'drilling'")
+            if self.survey_nodes != "bottom":
+                raise ValueError(f"survey_nodes = {self.survey_nodes!r} is only used with kind = 'drilling'")
             return self
         if self.survey_settle_s >= self.survey_stop_s:
             raise ValueError(
@@ -329,11 +347,18 @@ class Scenario(_Section):
                 f"budget; got {self.radio.model!r}) and filter.implementation = 'fixed' (the frames with bytes; "
                 f"got {self.filter.implementation!r})")
         if self.motion.kind == "drilling":
+            if self.motion.initial_tubes > self.chain.nodes:
+                raise ValueError(
+                    f"motion.initial_tubes = {self.motion.initial_tubes}: more tubes in the hole than the chain has "
+                    f"nodes (allowed: 1 <= motion.initial_tubes <= chain.nodes = {self.chain.nodes})")
             needed = self.motion.drilling_duration_s(self.chain.nodes)
             if self.simulation.duration_s < needed:
                 raise ValueError(
                     f"simulation.duration_s ({self.simulation.duration_s}) must cover the drilling programme of "
-                    f"{self.chain.nodes} tubes (allowed: >= {needed:.6g} s)"
+                    f"{self.chain.nodes} tubes, {self.motion.initial_tubes} of them in the hole at the start "
+                    f"(motion.initial_tubes): motion.initial_static_s + {self.chain.nodes - self.motion.initial_tubes + 1} "
+                    f"x (tube_length_m / rate_of_penetration_m_s + survey_stop_s) + "
+                    f"{self.chain.nodes - self.motion.initial_tubes} x insertion_s (allowed: >= {needed:.6g} s)"
                 )
         return self
 

@@ -35,10 +35,10 @@ def node_true_inputs(process: DrillingProcess, node: int, t_s) -> tuple[np.ndarr
         raise NodesimError(f"node {node} does not exist (allowed: 0..{process.tubes - 1})")
     t = np.asarray(t_s, dtype=float)
     t_in = process.insertion_times_s()[node]
-    truth = process.truth(np.maximum(t, t_in))
+    truth = process.node_truth(node, np.maximum(t, t_in))
     rate = np.zeros(t.shape + (3,))
     rate[..., 2] = np.where(t >= t_in, truth.spin_rate_rad_s, 0.0)
-    force = specific_force_body(truth.inclination_rad[node], truth.azimuth_rad[node], truth.yaw_rad[node])
+    force = specific_force_body(truth.inclination_rad, truth.azimuth_rad, truth.yaw_rad)
     return rate, force
 
 

@@ -3,6 +3,7 @@ stops every tube length hand the ground station one survey per station (thesis 2
 
 import csv
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,7 @@ import pytest
 from nodesim.chain.network import simulate_chain
 from nodesim.motion.chain_motion import build_motion
 from nodesim.cli.main import main
-from nodesim.scenario.schema import Scenario
+from nodesim.scenario.schema import Scenario, load_scenario
 from nodesim.units import DEG, wrap_pi
 
 REPO = Path(__file__).resolve().parents[3]
@@ -187,3 +188,136 @@ def test_same_seed_same_run_directory_bytes(tmp_path):
     other.save(tmp_path / "c", plots=False)
     assert (tmp_path / "c" / "surveys.csv").read_bytes() != (tmp_path / "a" / "surveys.csv").read_bytes()
     assert other.summary["nodes"] == 3
+
+
+@pytest.mark.parametrize("initial", [1, 3])
+def test_field_programme_from_first_principles(initial):
+    """The field scenario's motion (10 tubes, 2 m at 1 m/min: 120 s drilling, 40 s stop, 60 s insertion, 60 s at
+    rest first, 60 deg/s with 5 s ramps) with motion.initial_tubes = M, against the programme worked out by hand:
+    one tube cycle is 220 s; tube k >= M is inserted at 220 (k - M + 1) s; the stop of tube k (station k + 1) starts
+    at 60 + 220 (k - M + 1) + 120 s with the bit at 2 (k + 1) m; a drilled tube turns the string by w (120 - 5) s
+    (two 5 s ramps turn w 5 s); a node's yaw is the string angle since its insertion (its mount is the string
+    angle then) plus the wellpath twist between its MDs.  M = 1 is the programme as it always was (the tests
+    above); the numbers of the previous implementation were also checked bit for bit by hashes when M was added."""
+    from nodesim.motion.drilling_timelines import drilling_process
+
+    scenario, _ = load_scenario(FIELD)
+    s = scenario.with_overrides(**{"motion.initial_tubes": initial})
+    if initial == 1:
+        assert build_motion(s).timelines == build_motion(scenario).timelines
+    n, M, w = 10, initial, 60.0 * DEG
+    motion = build_motion(s)
+    by_id = {tl.node_id: tl for tl in motion.timelines}
+    ins_start = [0.0] * M + [220.0 * (k - M + 1) for k in range(M, n)]  # by process node k (0 = bit)
+    for k in range(n):
+        tl = by_id[n - k]
+        assert tl.present_from_s == pytest.approx(ins_start[k], abs=1e-9)
+        assert tl.filter_start_s == pytest.approx(ins_start[k] + 60.0, abs=1e-9)
+        holds = [(220.0 * (j - M + 1), 220.0 * (j - M + 1) + 60.0) for j in range(max(k + 1, M), n)]
+        assert np.allclose(np.reshape(tl.holds, (-1, 2)), np.reshape(holds, (-1, 2)), rtol=0, atol=1e-9)
+        top_until = math.inf if k == n - 1 else (220.0 * (k - M + 2) if k >= M - 1 else 0.0)
+        assert tl.top_until_s == pytest.approx(top_until)
+    assert [tl.node_id for tl in motion.timelines if tl.is_top(1.0)] == [n - M + 1]
+    assert [(st.station, st.node_id) for st in motion.stops] == [(k + 1, n) for k in range(M - 1, n)]
+    t_survey = [60.0 + 220.0 * (k - M + 1) + 120.0 + 20.0 for k in range(M - 1, n)]
+    assert [st.t_survey_s for st in motion.stops] == pytest.approx(t_survey)
+    assert [st.md_m for st in motion.stops] == pytest.approx([2.0 * (k + 1) - 1.0 for k in range(M - 1, n)])
+    assert s.motion.drilling_duration_s(n) == pytest.approx(60.0 + (n - M + 1) * 160.0 + (n - M) * 60.0)
+    proc = drilling_process(s)
+    wp = proc.wellpath
+    for k_stop, t in zip(range(M - 1, n), t_survey):
+        theta = (k_stop - M + 2) * w * 115.0
+        for j in range(k_stop + 1):  # the nodes present at this stop
+            att = motion.attitude(n - 1 - j, np.array([t]))
+            md = 2.0 * (k_stop + 1) - 2.0 * j - 1.0
+            md_in = 2.0 * (M - 1 - j) - 1.0 if j < M else -1.0  # MD at insertion (the bit at 2 j m)
+            gamma = float(wp.twist_rad(md) - wp.twist_rad(max(md_in, 0.0)))
+            inc, azi = wp.attitude_at(md)
+            assert float(att.yaw_rad[0]) == pytest.approx(theta + gamma, abs=1e-9)
+            assert float(att.inclination_rad[0]) == pytest.approx(float(inc), abs=1e-12)
+            assert float(att.azimuth_rad[0]) == pytest.approx(float(azi), abs=1e-12)
+    # before the filter start every node present rests as at t = 0 (the initial ones) or as at its insertion
+    assert float(motion.attitude(n - 1, np.array([10.0])).yaw_rad[0]) == 0.0
+
+
+def test_initial_tubes_run_on_the_event_engine():
+    """Three of five tubes in the hole at t = 0 (SimPy engine): the three nodes average their gyros over the first
+    60 s and run from then on; node 3, the top initial one, uses the encoder until tube 4 is inserted; all three hold
+    during both insertions; stations 3..5 reach the ground station."""
+    s = drilling(5, **{"motion.initial_tubes": 3, "simulation.duration_s": 60.0 + 3 * 160.0 + 2 * 60.0,
+                       "metrics.window_end_s": 660.0, "simulation.engine": "event"})
+    run = simulate_chain(s)
+    for node in run.nodes[2:]:
+        assert not node.running[node.t_s < 60.0].any() and node.running[(node.t_s > 62.0) & (node.t_s < 220.0)].all()
+        for a, b in ((220.0, 280.0), (440.0, 500.0)):
+            hold = (node.t_s >= a) & (node.t_s < b)
+            assert not node.running[hold].any() and (node.yaw_est_rad[:, hold] == node.yaw_est_rad[:, hold][:, :1]).all()
+    # node 3 is the top node before the first insertion: the encoder updates it every tick; node 4 gets them forwarded
+    early = (run.nodes[2].t_s > 62.0) & (run.nodes[2].t_s < 180.0)
+    assert run.nodes[2].update_mask[:, early].all() and run.nodes[3].update_mask[:, early].mean() > 0.9
+    assert [g.packet.station for g in run.surveys] == [3, 4, 5]
+    assert all(g.packet.valid.all() and g.packet.node_id == 5 for g in run.surveys)
+
+
+def test_survey_nodes_all_sends_every_present_nodes_survey_and_the_ground_survey_keeps_the_bottom_ones(tmp_path):
+    """motion.survey_nodes = "all" (SimPy engine): at each stop every node present takes its survey at the stop's
+    survey time at its own MD and sends it up: one ground survey per present node per station, each with its node
+    id.  The ground survey (what the wellpath and its covariance are built from) and the metric windows stay one
+    per station, the bottom node's: the same as with "bottom"."""
+    from nodesim.api import simulate_scenario
+
+    n, M = 4, 2
+    over = {"motion.initial_tubes": M, "simulation.duration_s": 60.0 + 3 * 160.0 + 2 * 60.0,
+            "metrics.window_end_s": 660.0, "simulation.realizations": 2, "simulation.engine": "event"}
+    bottom = drilling(n, **over)
+    every = bottom.with_overrides(**{"motion.survey_nodes": "all"})
+    motion = build_motion(every)
+    assert motion.metric_windows == build_motion(bottom).metric_windows and len(motion.metric_windows) == n - M + 1
+    run = simulate_chain(every)
+    got = sorted((g.packet.station, g.packet.node_id) for g in run.surveys)
+    # station s is the stop of tube s - 1: process nodes 0 .. s - 1 (ids n .. n - s + 1) are in the hole
+    assert got == sorted((st, n - k) for st in range(M, n + 1) for k in range(st))
+    t_survey = {st.station: st.t_survey_s for st in motion.stops if st.node_id == n}
+    for g in run.surveys:
+        p = g.packet
+        assert p.valid.all() and np.all(g.arrival_s > p.t_s)
+        assert t_survey[p.station] <= p.t_s < t_survey[p.station] + 1.0 / 1.9  # its first tick at or after
+        assert p.md_m == pytest.approx(2.0 * p.station - 2.0 * (n - p.node_id) - 1.0)  # bit at 2 x station m
+    a, b = simulate_scenario(bottom, None), simulate_scenario(every, None)
+    assert b.summary["surveys_received"] == len(got) and a.summary["surveys_received"] == n - M + 1
+    assert a.ground_survey.equals(b.ground_survey) and len(b.ground_survey) == n - M + 1
+    table = b.surveys
+    assert len(table) == 2 * len(got)
+    assert sorted(zip(table["station"][table["realization"] == 0], table["node"][table["realization"] == 0])) == got
+    b.save(tmp_path / "all", plots=False)
+    rows = list(csv.DictReader((tmp_path / "all" / "ground_survey.csv").open()))
+    assert [float(r["md_m"]) for r in rows] == pytest.approx([2.0 * st - 1.0 for st in range(M, n + 1)])
+
+
+def test_drilling_day_scenario_is_its_programme_exactly_and_cheap_to_set_up():
+    """scenarios/perf/drilling_day_1000.toml: 1000 tubes, 785 in the hole, 24 h at 24 m/h: its duration is the
+    programme, 60 + 216 (2 / (24 / 3600) + 40) + 215 x 60 s; its motion builds in well under a second (the truth is
+    per node); its soil hops lose about 10 % of the estimate frames per try (the comment's PER, from the link
+    budget)."""
+    import time
+
+    from nodesim.chain.radio import hop_channels
+    from nodesim.rng.streams import RunStreams
+
+    s, _ = load_scenario(REPO / "scenarios" / "perf" / "drilling_day_1000.toml")
+    n, M = 1000, 785
+    assert (s.chain.nodes, s.motion.initial_tubes, s.filter.implementation) == (n, M, "fixed")
+    assert s.simulation.duration_s == s.motion.drilling_duration_s(n) == 60 + 216 * (2 / (24 / 3600) + 40) + 215 * 60
+    t0 = time.perf_counter()
+    motion = build_motion(s)
+    assert time.perf_counter() - t0 < 5.0  # ~0.1 s here; the whole-chain truth per survey stop took ~8 s
+    assert [st.station for st in motion.stops] == list(range(M, n + 1)) and {st.node_id for st in motion.stops} == {n}
+    assert motion.stops[-1].end_s == pytest.approx(s.simulation.duration_s)
+    assert motion.stops[0].md_m == pytest.approx(2.0 * M - 1.0) and motion.stops[-1].md_m == pytest.approx(2.0 * n - 1.0)
+    assert [tl.node_id for tl in motion.timelines if tl.present_from_s == 0.0] == list(range(n - M + 1, n + 1))
+    assert motion.timelines[n - M].top_until_s == pytest.approx(60.0 + 300.0 + 40.0)  # node 216 until tube 785's insertion
+    small = s.with_overrides(**{"chain.nodes": 3, "motion.initial_tubes": 1, "simulation.duration_s": 1300.0,
+                                "metrics.window_end_s": 1300.0})
+    hops, _ = hop_channels(small, RunStreams(seed=1, n_nodes=3), 1)
+    assert hops[0].per_data(np.array([100.0]))[0] == 0.0  # the cable to the top node
+    assert float(hops[1].per_data(np.array([100.0]))[0]) == pytest.approx(0.108, abs=0.001)

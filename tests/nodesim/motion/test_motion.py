@@ -189,3 +189,85 @@ def test_node_imu_along_drilling_integrates_to_the_string_angle_and_reads_the_in
     f = rec.accel.value[survey].mean(axis=0)
     inc = math.atan2(math.hypot(f[0], f[1]), f[2])
     assert inc == pytest.approx(float(WB1.attitude_at(1.0)[0]), abs=0.1 * DEG)  # misalignment 1e-3 rad ~ 0.06 deg
+
+
+@pytest.mark.parametrize("initial", [1, 4])
+def test_node_truth_is_the_truth_row_bit_for_bit(initial):
+    """DrillingProcess.node_truth (O(K) per node, what the chain's attitude uses) and truth (every node) are one
+    implementation: equal arrays, NaN where the same, on the curved WB1 path at random times (before t = 0, before
+    and after each insertion, at the phase boundaries)."""
+    rng = np.random.default_rng(5)
+    dp = DrillingProcess(WB1, mount_yaw_rad=tuple(rng.uniform(0, 6, 10)), initial_tubes=initial)
+    t_in = dp.insertion_times_s()
+    t = np.concatenate([rng.uniform(-100.0, dp.duration_s + 100.0, 4000), t_in, t_in - 1e-3,
+                        [p.end_s for p in dp.phases()]])
+    rng.shuffle(t)
+    every = dp.truth(t)
+    assert every.present.sum(axis=1)[initial:].min() < t.size  # some times are before an insertion
+    for k in range(dp.tubes):
+        one = dp.node_truth(k, t)
+        assert np.array_equal(one.present, every.present[k])
+        for key in ("md_m", "inclination_rad", "azimuth_rad", "yaw_rad", "toolface_rad"):
+            assert np.array_equal(getattr(one, key), getattr(every, key)[k], equal_nan=True), (k, key)
+        assert np.array_equal(one.spin_rate_rad_s, every.spin_rate_rad_s)
+    with pytest.raises(NodesimError, match=r"node 10 does not exist \(allowed: 0..9\)"):
+        dp.node_truth(10, t)
+
+
+def test_initial_tubes_start_in_the_hole_and_the_programme_drills_the_rest():
+    """M = 3 of 10 tubes in the hole at t = 0: the bit starts (M - 1) L deeper, the programme drills tube M - 1 (the
+    top initial one) first: N - M + 1 drills and survey stops, N - M insertions, length
+    (N - M + 1) (L / ROP + stop) + (N - M) insertion (module doc of nodesim.motion.drilling)."""
+    L, rop, stop, ins, off = 2.0, 0.01, 30.0, 60.0, 1.0
+    dp = DrillingProcess(WB1, tube_length_m=L, rop_m_s=rop, survey_stop_s=stop, insertion_s=ins, node_offset_m=off,
+                         initial_tubes=3)
+    phases = dp.phases()
+    assert [p.tube for p in phases if p.name == "drill"] == list(range(2, 10))
+    assert [p.tube for p in phases if p.name == "survey"] == list(range(2, 10))
+    assert [p.tube for p in phases if p.name == "insertion"] == list(range(3, 10))
+    assert dp.duration_s == pytest.approx(8 * (L / rop + stop) + 7 * ins)
+    cycle = L / rop + stop + ins
+    assert np.allclose(dp.insertion_times_s(), [0, 0, 0] + [cycle * j for j in range(1, 8)])
+    assert dp.bit_start_md_m == 4.0 and dp.bit_md_m(0.0) == 4.0 and dp.bit_md_m(dp.duration_s) == pytest.approx(20.0)
+    start = dp.truth(np.array([0.0]))
+    assert start.present[:, 0].tolist() == [True] * 3 + [False] * 7
+    assert start.md_m[:3, 0].tolist() == [4.0 - k * L - off for k in range(3)]  # the top one at -off, as tube 0 for M = 1
+    assert dp.node_count(np.array([0.0, cycle - 1e-6, cycle])).tolist() == [3, 3, 4]
+    # the initial nodes' yaw is the string angle from t = 0 on (plus the twist along the path)
+    t = np.array([dp.duration_s])
+    end = dp.truth(t)
+    gamma = WB1.twist_rad(end.md_m[:3, 0]) - WB1.twist_rad(np.maximum(start.md_m[:3, 0], 0.0))
+    assert np.allclose(end.yaw_rad[:3, 0], dp.rate_profile().angle_rad(t) + gamma, rtol=0, atol=1e-12)
+    one = DrillingProcess(WB1, tube_length_m=L, rop_m_s=rop, survey_stop_s=stop, insertion_s=ins)
+    assert one.bit_start_md_m == 0.0 and one.phases()[0] == type(phases[0])("drill", 0, 0.0, L / rop)
+
+
+@pytest.mark.parametrize("initial", [0, 11, 2.5, -1])
+def test_initial_tubes_out_of_range_is_an_error(initial):
+    with pytest.raises(NodesimError, match=r"initial_tubes = .* must be an integer in \[1, 10\]"):
+        DrillingProcess(WB1, initial_tubes=initial)
+
+
+def test_process_parts_are_computed_once():
+    """Phases, rate profile, insertion times and the wellpath's twist grid are cached on the (frozen) process: the
+    same objects on every call, and a replaced process computes its own."""
+    from dataclasses import replace
+
+    dp = DrillingProcess(WB1)
+    assert dp.phases() is dp.phases() and dp.rate_profile() is dp.rate_profile()
+    assert dp.insertion_times_s() is dp.insertion_times_s() and not dp.insertion_times_s().flags.writeable
+    assert WB1._twist_grid is WB1._twist_grid
+    other = replace(dp, insertion_s=90.0)
+    assert other.insertion_times_s()[1] == dp.insertion_times_s()[1] + 30.0
+
+
+def test_node_timeline_holding_by_bisection_matches_the_intervals():
+    from nodesim.motion.timelines import NodeTimeline
+
+    holds = tuple((220.0 * j, 220.0 * j + 60.0) for j in range(1, 200))
+    tl = NodeTimeline(1, 0.0, 60.0, holds, 220.0)
+    t = np.concatenate([np.random.default_rng(2).uniform(-10, 45_000, 5000), [a for a, _ in holds], [b for _, b in holds]])
+    assert [tl.holding(x) for x in t] == [any(a <= x < b for a, b in holds) for x in t]
+    assert not NodeTimeline(1, 0.0, 60.0, (), 0.0).holding(100.0)
+    with pytest.raises(NodesimError, match=r"holds\[1\] = \(5.0, 30.0\)"):
+        NodeTimeline(1, 0.0, 60.0, ((0.0, 10.0), (5.0, 30.0)), 0.0)

@@ -60,6 +60,18 @@ BAD_CASES = [
     ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 1.0, 2.0], [0.0, 2.0, 3.0]]\n', "motion", "wellpath[1] = [0.0, 2.0, 3.0]: MD must increase"),
     ('[motion]\nkind = "drilling"\nwellpath = [[0.0, 190.0, 2.0]]\n', "motion", "inclination must be in [0, 180]"),
     ('[motion]\nkind = "drilling"\nramp_s = 70.0\n', "motion", "ramp_s (70.0): two ramps must fit"),
+    ('[motion]\nkind = "drilling"\ninitial_tubes = 0\n', "motion.initial_tubes", "greater than or equal to 1"),
+    ('[motion]\nkind = "drilling"\ninitial_tubes = 2.5\n', "motion.initial_tubes", "valid integer"),
+    ('[motion]\nkind = "drilling"\ninitial_tubes = "many"\n', "motion.initial_tubes", "valid integer"),
+    ('[motion]\nkind = "drilling"\ninitial_tubes = 4\n[chain]\nnodes = 3\n', "motion.initial_tubes = 4",
+     "allowed: 1 <= motion.initial_tubes <= chain.nodes = 3"),
+    ('[motion]\ninitial_tubes = 2\n[chain]\nnodes = 3\n', "motion", "initial_tubes (2) is only used with kind = 'drilling'"),
+    ('[motion]\nkind = "drilling"\nsurvey_nodes = "some"\n', "motion.survey_nodes", "'bottom'"),
+    ('[motion]\nsurvey_nodes = "all"\n', "motion", "survey_nodes = 'all' is only used with kind = 'drilling'"),
+    ('[motion]\nkind = "drilling"\ninitial_tubes = 3\n[chain]\nnodes = 10\n', "<top level>",
+     "must cover the drilling programme of 10 tubes, 3 of them in the hole at the start (motion.initial_tubes): "
+     "motion.initial_static_s + 8 x (tube_length_m / rate_of_penetration_m_s + survey_stop_s) + 7 x insertion_s "
+     "(allowed: >= 1760 s)"),
 ]
 
 
@@ -123,3 +135,23 @@ def test_fixed_word_below_12_bits_is_a_clear_error():
 def test_engine_key_is_checked():
     with pytest.raises(ScenarioError, match="simulation.engine"):
         Scenario().with_overrides(**{"simulation.engine": "fast"})
+
+
+@pytest.mark.parametrize("initial", [1, 2, 7, 10])
+def test_drilling_duration_check_is_the_programme_with_initial_tubes(initial):
+    """simulation.duration_s must cover initial_static_s + (N - M + 1) (L / ROP + survey_stop_s) + (N - M) insertion_s
+    (a tube: drilling L at the rate of penetration, its survey stop, the next insertion); no other minimum per tube."""
+    motion = {"kind": "drilling", "initial_tubes": initial, "tube_length_m": 3.0, "rate_of_penetration_m_s": 0.02,
+              "survey_stop_s": 25.0, "survey_settle_s": 10.0, "insertion_s": 45.0, "initial_static_s": 30.0}
+    drilled = 10 - initial + 1
+    needed = 30.0 + drilled * (3.0 / 0.02 + 25.0) + (drilled - 1) * 45.0
+    ok = {"motion": motion, "chain": {"nodes": 10}, "simulation": {"duration_s": needed},
+          "metrics": {"window_start_s": 0.0, "window_end_s": needed}}
+    s = parse_scenario(ok)
+    assert s.motion.drilling_duration_s(10) == pytest.approx(needed, rel=1e-15)
+    from nodesim.motion.drilling_timelines import drilling_process
+
+    assert drilling_process(s).duration_s + 30.0 == pytest.approx(needed, rel=1e-15)  # the process agrees
+    short = {**ok, "simulation": {"duration_s": needed - 0.5}, "metrics": {"window_start_s": 0.0, "window_end_s": 1.0}}
+    with pytest.raises(ScenarioError, match=rf"drilling programme of 10 tubes, {initial} of them .*allowed: >= {needed:.6g} s"):
+        parse_scenario(short)
