@@ -31,6 +31,7 @@
 """
 
 from importlib import resources
+from pathlib import Path
 
 import simpy
 
@@ -71,7 +72,8 @@ SKELETON_LOSS = 0.1
 
 
 def skeleton(scenario) -> int:
-    """The chain's SimPy structure with no work: one process per node ticking at the node's tick times; on each
+    """The chain's SimPy structure with no work: one process per node ticking at the node's tick times (from its
+    insertion on, in a drilling run, as the chain's nodes do); on each
     tick the node sends one frame to the next node with stop-and-wait ARQ (a process per frame: airtime, then an
     ACK and a put into the next node's inbox, or the ACK timeout and another try, up to 1 + mac.max_retries tries,
     each lost with probability SKELETON_LOSS) and one sink process per inbox takes the frames.  This is the event
@@ -81,6 +83,7 @@ def skeleton(scenario) -> int:
 
     from nodesim.chain.faults import stepped_ticks
     from nodesim.chain.network import node_clock, tick_times
+    from nodesim.motion.chain_motion import build_motion
 
     env = simpy.Environment()
     dt = 1.0 / scenario.chain.firmware_rate_hz
@@ -112,9 +115,11 @@ def skeleton(scenario) -> int:
         while True:
             yield inbox[i].get()
 
+    present = [tl.present_from_s for tl in build_motion(scenario).timelines]  # drilling: a node ticks once inserted
     for i in range(n):
         t = tick_times(*node_clock(scenario, i + 1), dt, scenario.simulation.duration_s)
-        env.process(node(i, stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)))
+        t = stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
+        env.process(node(i, t[t >= present[i]]))
         env.process(sink(i + 1))
     env.run(until=scenario.simulation.duration_s + 1.0)
     return count[0]
@@ -244,8 +249,104 @@ def chain1000_24h_extrapolated() -> dict:
     }
 
 
+DAY_HOURS = {1: 793, 2: 802}
+"""The drilling day's first hour and first two hours as runs of their own: the 785 tubes in the hole and the 8 (17)
+new ones the hour (two hours) inserts; with 400 s per new tube their programmes end at exactly 3600 s (7200 s)."""
+
+
+def _day_slice(tmp: Path, hours: int) -> Path:
+    with resources.as_file(resources.files("scenarios") / "perf" / "drilling_day_1000.toml") as p:
+        text = p.read_text()
+    end = 3600.0 * hours
+    for a, b in (("nodes = 1000", f"nodes = {DAY_HOURS[hours]}"), ("duration_s = 86400.0", f"duration_s = {end}"),
+                 ("window_end_s = 86400.0", f"window_end_s = {end}")):
+        assert a in text, a
+        text = text.replace(a, b)
+    path = tmp / f"drilling_{hours}h.toml"
+    path.write_text(text)
+    return path
+
+
+PEAK = ("import sys\nfrom nodesim.cli.main import main\ncode = main(sys.argv[1:])\n"
+        "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM:')][0].split()[1]\n"
+        "print('peak_kib', hwm, file=sys.stderr)\nsys.exit(code)")
+
+
+def _process(args: list[str]) -> tuple[float, float, str]:
+    """(wall [s], peak RSS [bytes] (the process's own VmHWM), stdout) of a whole ``nodesim`` process."""
+    import subprocess
+    import sys
+    import time
+
+    t = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", PEAK, *args], capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t
+    if proc.returncode:
+        raise RuntimeError(f"nodesim {' '.join(args)} failed: {proc.stderr[-2000:]}")
+    peak = [float(x.split()[1]) * 1024.0 for x in proc.stderr.splitlines() if x.startswith("peak_kib ")]
+    return wall, peak[0], proc.stdout
+
+
+def drilling_day_1000() -> dict:
+    """``scenarios/perf/drilling_day_1000.toml`` (issue 20): the whole day if the memory guard lets it run here (it
+    does not yet: the records are held whole, ~31 GB), else its estimate; then its first hour and first two hours,
+    each a whole ``nodesim run`` process with default outputs (wall, peak RSS), the hour against the bare SimPy
+    skeleton process with the same node-ticks (node-ticks per second on each side), and
+    ``drilling_10_tubes`` on both engines."""
+    import json
+    import tempfile
+
+    from nodesim.chain.compiled.engine import choose_engine
+    from nodesim.chain.memory_budget import available_memory_bytes, estimate_run_memory
+    from nodesim.chain.network import simulate_chain
+
+    day = _scenario("perf", "drilling_day_1000.toml")
+    need = estimate_run_memory(day, choose_engine(day))
+    out = {"drilling_day_1000_estimated_peak_gb": need.total_bytes / 1e9, "drilling_day_1000_node_ticks": need.node_ticks}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        available = available_memory_bytes()
+        if available is not None and need.total_bytes > available:
+            out["drilling_day_1000_wall_s"] = float("nan")  # refused by the memory guard: not run, not extrapolated
+        else:
+            with resources.as_file(resources.files("scenarios") / "perf" / "drilling_day_1000.toml") as p:
+                wall, peak, _ = _process(["run", str(p), "--out", str(tmp / "day"), "--quiet", "--json"])
+            out["drilling_day_1000_wall_s"], out["drilling_day_1000_peak_rss_gb"] = wall, peak / 1e9
+        for hours in DAY_HOURS:
+            path = _day_slice(tmp, hours)
+            wall, peak, text = _process(["run", str(path), "--out", str(tmp / f"run{hours}"), "--quiet", "--json"])
+            ticks = int(json.loads(text)["simpy_events"])
+            out[f"drilling_day_first_{hours}h_wall_s"] = wall
+            out[f"drilling_day_first_{hours}h_peak_rss_gb"] = peak / 1e9
+            out[f"drilling_day_first_{hours}h_node_ticks"] = ticks
+            if hours == 1:
+                skel_wall, _, skel_text = _process_skeleton(path)
+                assert int(skel_text.strip()) == ticks, "the skeleton ticks the same nodes at the same times"
+                out["drilling_day_first_1h_skeleton_wall_s"] = skel_wall
+                out["drilling_day_node_ticks_per_s_vs_skeleton"] = skel_wall / wall  # same node-ticks on each side
+        out["drilling_day_peak_rss_2h_over_1h"] = (out["drilling_day_first_2h_peak_rss_gb"]
+                                                   / out["drilling_day_first_1h_peak_rss_gb"])
+    field = _scenario("field", "drilling_10_tubes.toml")
+    for engine in ("compiled", "event"):
+        s = field.with_overrides(**{"simulation.engine": engine})
+        simulate_chain(s.with_overrides(**{"simulation.realizations": 1}))  # warm
+        out[f"drilling_10_tubes_{engine}_s"] = best_time_s(lambda: simulate_chain(s), repeat=2)
+    out["drilling_10_tubes_compiled_speedup_vs_event"] = out["drilling_10_tubes_event_s"] / out["drilling_10_tubes_compiled_s"]
+    return out
+
+
+def _process_skeleton(path: Path) -> tuple[float, float, str]:
+    import subprocess
+    import sys
+    import time
+
+    t = time.perf_counter()
+    proc = subprocess.run([sys.executable, __file__, "skeleton", str(path)], capture_output=True, text=True, check=True)
+    return time.perf_counter() - t, 0.0, proc.stdout
+
+
 BENCHMARKS = [chain_drilling_batched_vs_loop, chain100_1h_overhead_vs_skeleton, batched_mc_speedup,
-              chain1000_24h_extrapolated]
+              chain1000_24h_extrapolated, drilling_day_1000]
 
 
 if __name__ == "__main__":  # the skeleton as a process of its own: python bench_chain.py skeleton SCENARIO.toml

@@ -83,6 +83,9 @@ CASES.update({
                                                                 {"id": 4, "clock_drift_ppm": -150.0}]},
     "drilling, dead node, surveys over the skip hop": {**DRILL, **{k: v for k, v in BASE.items() if k.startswith(
         ("radio.", "mac."))}, "faults.node_failure": [{"node": 3, "at_s": 400.0}]},
+    "drilling, every node surveys, 2 tubes in the hole": {**DRILL_LOSSY, "motion.survey_nodes": "all",
+                                                          "motion.initial_tubes": 2, "simulation.duration_s": 430.0,
+                                                          "metrics.window_end_s": 430.0},
     "pipe hops": {**LOSSY, "radio.kind": "pipe"},
     "no updates": {**BASE, "schedule.mode": "none"},
     "arbitrary schedule": {**LOSSY, "schedule.mode": "arbitrary",
