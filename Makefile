@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.install-stamp
 
-.PHONY: install demo test bench clean
+.PHONY: install demo test bench validation-docs clean
 
 install: $(STAMP)
 
@@ -25,6 +25,12 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	$(BIN)/nodesim bench --json --write benchmarks/latest.json
+
+# the validation counts and table of README.md and docs/validation.md, from a real `nodesim validate` run (minutes)
+validation-docs: $(STAMP)
+	mkdir -p runs
+	$(BIN)/nodesim validate --json > runs/validation.json
+	$(BIN)/python scripts/validation_table.py runs/validation.json
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .hypothesis

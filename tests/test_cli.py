@@ -83,8 +83,9 @@ def test_validate_json_contract(capsys):
     checks = json.loads(capsys.readouterr().out)
     assert checks, "at least one check"
     for c in checks:
-        assert {"name", "source", "ours", "published", "tolerance", "ok"} <= set(c)
+        assert {"name", "source", "ours", "published", "tolerance", "ok", "kind"} <= set(c)
         assert isinstance(c["ok"], bool)
+        assert c["kind"] in ("reproduction", "self_consistency", "hypothesis")
         assert "thesis" in c["source"] or "ISCWSA" in c["source"] or "paper" in c["source"]
 
 

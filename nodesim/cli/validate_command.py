@@ -1,7 +1,12 @@
-"""``nodesim validate``: every check against a published figure."""
+"""``nodesim validate``: every check against a published figure, with its kind and a count per kind.
+
+Exit status: 0 whatever the checks say (the failing rows are part of the record), unless ``--strict``: then 1
+when any row is not within its tolerance.
+"""
 
 from __future__ import annotations
 
+import math
 import sys
 
 from nodesim.io.rundir import dumps_json
@@ -11,9 +16,12 @@ def register(sub) -> None:
     p = sub.add_parser(
         "validate",
         help="compare our figures with the published ones",
-        description="Run every check against a published figure: name, source, ours, published, tolerance, ok.",
+        description="Run every check against a published figure: ok, kind (reproduction | self_consistency | "
+        "hypothesis), name, ours, published, tolerance, source; then ok / total per kind.",
     )
-    p.add_argument("--json", action="store_true", help="print a JSON list of checks on stdout")
+    p.add_argument("--json", action="store_true", help="print a JSON list of checks on stdout (each with its kind)")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 when any check is not within tolerance (without it the exit status is 0)")
     p.set_defaults(func=run)
 
 
@@ -23,17 +31,32 @@ def run(args) -> int:
     checks = run_checks()
     if args.json:
         sys.stdout.write(dumps_json([c.as_dict() for c in checks]).decode())
-        return 0
-    print(format_table(checks))
-    n_ok = sum(c.ok for c in checks)
-    print(f"{n_ok} of {len(checks)} checks within tolerance")
-    return 0
+    else:
+        print(format_table(checks))
+        print(format_summary(checks))
+    return 1 if args.strict and not all(c.ok for c in checks) else 0
+
+
+def _number(value: float) -> str:
+    """Four significant digits; "-" where there is no figure (e.g. no published value for a self-consistency row)."""
+    return f"{value:.4g}" if value is not None and math.isfinite(value) else "-"
 
 
 def format_table(checks) -> str:
-    header = ("ok", "name", "ours", "published", "tolerance", "source")
-    rows = [("yes" if c.ok else "NO", c.name, f"{c.ours:.4g}", f"{c.published:.4g}", c.tolerance, c.source) for c in checks]
+    """One line per check: ok, kind, name, ours, published, tolerance, source (columns padded)."""
+    header = ("ok", "kind", "name", "ours", "published", "tolerance", "source")
+    rows = [("yes" if c.ok else "NO", c.kind, c.name, _number(c.ours), _number(c.published), c.tolerance, c.source)
+            for c in checks]
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     lines = ["  ".join(str(v).ljust(w) for v, w in zip(row, widths)).rstrip() for row in [header, *rows]]
     lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def format_summary(checks) -> str:
+    """One line per kind ("reproduction: 120 of 180 ok") and the total."""
+    from nodesim.validation import counts_by_kind
+
+    lines = [f"{kind}: {ok} of {total} ok" for kind, (ok, total) in counts_by_kind(checks).items()]
+    lines.append(f"{sum(c.ok for c in checks)} of {len(checks)} checks within tolerance")
     return "\n".join(lines)

@@ -59,6 +59,11 @@ def within_factor(name: str, source: str, ours: float, published: float, factor:
     return Check(name, source, float(ours), float(published), f"factor {factor:g}", bool(ok), note, kind)
 
 
+def counts_by_kind(checks) -> dict[str, tuple[int, int]]:
+    """(ok, total) per kind, in the order of :data:`KINDS` (a kind without rows counts (0, 0))."""
+    return {kind: (sum(c.ok for c in checks if c.kind == kind), sum(c.kind == kind for c in checks)) for kind in KINDS}
+
+
 def check_modules() -> list[str]:
     """Names of the discovered check modules, sorted."""
     return sorted(m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("checks_"))

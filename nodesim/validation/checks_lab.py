@@ -121,22 +121,56 @@ def two_nodes() -> list[Check]:
     ]
 
 
+TWO_NODE_AZIMUTH_DEG = (0.442, 0.761)
+"""Thesis two-node table (4.2.2): RMS azimuth error of node A and node B [deg]; the thesis gives no yaw figures."""
+
+
+def excess_within_factor(ratio: float, published_ratio: float, factor: float = 2.0) -> bool:
+    """How much worse, ``ratio - 1``, within ``factor`` of the published ``published_ratio - 1`` (> 0).
+
+    The lab rows' factor of two applied to the excess rather than to the ratio itself: a factor 2 on a ratio of
+    1.72 would accept 0.86, i.e. the reverse ordering, and 1.01, no ordering at all."""
+    excess, published_excess = ratio - 1.0, published_ratio - 1.0
+    return bool(published_excess / factor <= excess <= published_excess * factor)
+
+
 def orderings() -> list[Check]:
+    """Orderings: azimuth error grows with the timeout (table 4.22) and from node A to node B (two-node table).
+
+    Like is compared with like: our azimuth ratio B / A against the published azimuth ratio (a reproduction);
+    the yaw ratio only against our own node A (self-consistency: no yaw figure is published)."""
     azi = {n: _v(lab_summary(n), "rms_azimuth_error_deg") for n in
            ("continuous", "windowed_20s_5s", "windowed_20s_30s", "windowed_20s_60s")}
     chain = [azi["continuous"], azi["windowed_20s_5s"], azi["windowed_20s_30s"], azi["windowed_20s_60s"]]
     grows = all(a < b for a, b in zip(chain, chain[1:]))
     two = lab_summary("two_nodes_0p8hz")
-    azi_ratio = _v(two, "node2_rms_azimuth_error_deg") / _v(two, "node1_rms_azimuth_error_deg")
-    yaw_ratio = _v(two, "node2_rms_yaw_error_deg") / _v(two, "node1_rms_yaw_error_deg")
+    azi_a, azi_b = _v(two, "node1_rms_azimuth_error_deg"), _v(two, "node2_rms_azimuth_error_deg")
+    yaw_a, yaw_b = _v(two, "node1_rms_yaw_error_deg"), _v(two, "node2_rms_yaw_error_deg")
+    azi_ratio, yaw_ratio = azi_b / azi_a, yaw_b / yaw_a
+    pub_a, pub_b = TWO_NODE_AZIMUTH_DEG
+    pub_ratio = pub_b / pub_a
+    azi_ok = excess_within_factor(azi_ratio, pub_ratio)
+    azi_note = f"ours: A {azi_a:.4f}, B {azi_b:.4f} deg"
+    if not azi_ok:
+        azi_note += (
+            f"; B is {100 * (azi_ratio - 1):.1f} % worse than A, the thesis {100 * (pub_ratio - 1):.0f} %: each node's "
+            f"own, independent accelerometer noise (~0.085 deg of azimuth at 2 deg inclination) dominates both nodes, "
+            f"and what B inherits from A is yaw error (yaw A {yaw_a:.4f}, B {yaw_b:.4f} deg), too small to show; "
+            "the thesis's 0.442 / 0.761 needs a per-node azimuth error we do not model"
+        )
     return [
         Check("lab ordering: RMS azimuth 60 s / 5 s timeout (continuous < 5 s < 30 s < 60 s)", T422,
               azi["windowed_20s_60s"] / azi["windowed_20s_5s"], 0.565 / 0.250, "ordering (ratio > 1, chain increasing)",
               bool(grows), "ours: " + " < ".join(f"{v:.3f}" for v in chain)),
-        Check("lab ordering: RMS yaw error node B / node A (hop count)", "thesis two-node experiment (azimuth 0.761 / 0.442 deg)",
-              yaw_ratio, 0.761 / 0.442, "ordering (ratio > 1)", bool(yaw_ratio > 1.0),
-              f"compared on the yaw error, the part a hop changes: the azimuth ratio B/A is {azi_ratio:.3f} because "
-              "each node's independent accelerometer noise (~0.085 deg) swamps the ~0.003 deg yaw-error growth"),
+        Check("lab ordering: RMS azimuth error node B / node A (hop count)",
+              f"thesis two-node experiment (azimuth {pub_b} / {pub_a} deg)", azi_ratio, pub_ratio,
+              f"factor 2 on B/A - 1 (B {50 * (pub_ratio - 1):.0f}-{200 * (pub_ratio - 1):.0f} % worse than A)",
+              bool(azi_ok), azi_note),
+        Check("lab ordering: RMS yaw error node B / node A (hop count), ours only",
+              "thesis two-node experiment set-up (no yaw figure published)", yaw_ratio, float("nan"),
+              "ordering (ratio > 1)", bool(yaw_ratio > 1.0),
+              f"self-consistency: our node B against our node A (yaw A {yaw_a:.4f}, B {yaw_b:.4f} deg); B's "
+              "measurement is A's estimate, so B should inherit A's yaw error", kind="self_consistency"),
     ]
 
 

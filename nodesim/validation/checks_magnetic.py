@@ -11,6 +11,10 @@ Tolerances:
   and we accept 3 of those (17 % at M = 300);
 * SV covariance method: SV's inputs are Table 5 3-sigma values printed to 3 decimals, so up to ~4 %
   (0.0005 / 0.012) uncertain; we accept rel 5 %.
+
+Every row is a ``reproduction``: our field, survey, Monte Carlo, WLS and covariance code run on the published
+inputs against the published outputs (the WLS estimates are not the truths fed in: SV's prior and noise model
+pull them away, e.g. T3 b_z 4.19 uT for a truth of -0.335 uT).
 """
 
 from __future__ import annotations

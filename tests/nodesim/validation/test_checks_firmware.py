@@ -19,3 +19,4 @@ def test_fixed_filter_tracks_float_on_the_lab_profile():
     assert cont.ok and win.ok and sat.ok
     assert 0.0 < cont.ours < 0.01 and 0.0 < win.ours < 0.01
     assert sat.ours == 0.0
+    assert {c.kind for c in (cont, win, sat)} == {"self_consistency"}  # our fixed filter against our float filter
