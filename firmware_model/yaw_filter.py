@@ -46,7 +46,9 @@ class YawFilterConfig:
     - ``"process_noise"``: G_D = sqrt(B),  Q_d[b, b] = B   (2 sigma_b^2 / tau) dt   (B scales the process noise).
 
     A always enters as a noise gain: Q_d[psi, psi] = A^2 sigma_v^2 dt.  :attr:`q_d` is the one place Q is formed,
-    for the float filter and for the fixed-point build (whose constants are this Q quantised)."""
+    for the float filter and for the fixed-point build (whose constants are this Q quantised).  The default,
+    ``"process_noise"``, is the reading whose lab simulations come closer to the thesis's 8 published bias convergence
+    times (log-RMS error 0.21 against 0.40 for ``"noise_gain"``; ``nodesim validate``, issue 21)."""
 
     dt_s: float
     arw_rad_per_sqrt_s: float
@@ -54,7 +56,7 @@ class YawFilterConfig:
     bias_tau_s: float
     tuning_a: float = 1.0
     tuning_b: float = 5.0
-    b_tuning: str = "noise_gain"
+    b_tuning: str = "process_noise"
     initial_yaw_sigma_rad: float = math.radians(1.0)
     initial_bias_sigma_rad_s: float = math.radians(0.05)
 
