@@ -128,6 +128,9 @@ class FirmwareConfig:
             q: QFormat = getattr(self.formats, field)
             lines.append(f"#define NF_FMT_{field.upper()} {q.word_bits}, {q.frac_bits}  /* {q} */")
         lines.append("")
+        t = self.filter
+        lines.append(f"/* filter tuning (thesis eqs 4.14-4.15): A = {t.tuning_a:g}, B = {t.tuning_b:g}, b_tuning = {t.b_tuning} "
+                     f"(Q_bb = {'B^2' if t.b_tuning == 'noise_gain' else 'B'} 2 sigma_b^2 / tau dt, quantised into q_bb) */")
         lines.append("/* the filter kernel's parameters (firmware_model.fixed_kernel.kernel_params) */")
         lines.append("#define NF_FILTER_PARAMS_INIT { " + ", ".join(f"{int(v)}LL" for v in fparams) + " }")
         lines.append("/* the firmware's parameters (firmware_model.node_firmware.PARAMS: "

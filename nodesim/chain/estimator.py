@@ -34,7 +34,8 @@ from nodesim.units import DEG
 
 
 def filter_config(scenario: Scenario) -> YawFilterConfig:
-    """Filter tuning from the scenario: the thesis Allan values of the z gyro (table V.1) and A, B (eq 4.14)."""
+    """Filter tuning from the scenario: the thesis Allan values of the z gyro (table V.1), A, B and how B enters the
+    bias process noise (``filter.b_tuning``, eqs 4.14-4.15)."""
     s, f = scenario.sensor, scenario.filter
     return YawFilterConfig(
         dt_s=1.0 / scenario.chain.firmware_rate_hz,
@@ -43,6 +44,7 @@ def filter_config(scenario: Scenario) -> YawFilterConfig:
         bias_tau_s=f.bias_tau_s,
         tuning_a=f.tuning_a,
         tuning_b=f.tuning_b,
+        b_tuning=f.b_tuning,
     )
 
 

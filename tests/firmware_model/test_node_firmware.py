@@ -13,17 +13,19 @@ from numba import njit
 
 from firmware_model import c_reference
 from firmware_model import fixed_kernel as fk
+from firmware_model import fixedpoint as fxp
 from firmware_model import node_firmware as nf
 from firmware_model.config import GYRO_SENS_X10, FirmwareConfig
 from firmware_model.fixed_filter import FixedFormats
-from firmware_model.yaw_filter import YawFilterConfig
+from firmware_model.yaw_filter import B_TUNINGS, YawFilterConfig
 
 DEG = math.pi / 180.0
 
 
-def config(word_bits=32, tuning_b=5.0, extrapolate=False, fs=250, sigma_dps=0.08, offset_deg=0.0) -> FirmwareConfig:
+def config(word_bits=32, tuning_b=5.0, extrapolate=False, fs=250, sigma_dps=0.08, offset_deg=0.0,
+           b_tuning="noise_gain") -> FirmwareConfig:
     f = YawFilterConfig(dt_s=1 / 1.9, arw_rad_per_sqrt_s=7.38e-3 * DEG, bias_instability_rad_s=3.33e-3 * DEG,
-                        bias_tau_s=500.0, tuning_a=1.0, tuning_b=tuning_b)
+                        bias_tau_s=500.0, tuning_a=1.0, tuning_b=tuning_b, b_tuning=b_tuning)
     return FirmwareConfig(filter=f, formats=FixedFormats().with_word_length(word_bits), gyro_full_scale_dps=fs,
                           sigma_rate_rad_s=sigma_dps * DEG, offset_sigma_rad=offset_deg * DEG,
                           extrapolate_rate=extrapolate)
@@ -145,17 +147,35 @@ def compare_with_c(cfg: FirmwareConfig, inputs: np.ndarray, lib, ffi) -> None:
 
 
 def sweep(lib, ffi, n_sequences: int, seed: int) -> int:
-    """``n_sequences`` random sequences, each with its own random build; returns the number of saturations seen."""
+    """``n_sequences`` random sequences, each with its own random build (B entering as noise gain and as process
+    noise, filter.b_tuning, on alternate sequences); returns the number of sequences compared."""
     rng = np.random.default_rng(seed)
     saturated = 0
-    for _ in range(n_sequences):
+    for i in range(n_sequences):
         cfg = config(word_bits=int(rng.integers(12, 33)), tuning_b=float(rng.uniform(0.2, 20.0)),
                      extrapolate=bool(rng.integers(0, 2)), fs=int(rng.choice(list(GYRO_SENS_X10))),
-                     sigma_dps=float(rng.uniform(0.0, 2.0)), offset_deg=float(rng.uniform(0.0, 1.0)))
+                     sigma_dps=float(rng.uniform(0.0, 2.0)), offset_deg=float(rng.uniform(0.0, 1.0)),
+                     b_tuning=B_TUNINGS[i % 2])
         x = random_sequence(rng, int(rng.integers(2, 40)))
         compare_with_c(cfg, x, lib, ffi)
         saturated += 1
     return saturated
+
+
+@pytest.mark.parametrize("b", [0.5, 5.0, 20.0])
+def test_b_tuning_changes_only_the_quantised_q_bb(b):
+    """filter.b_tuning reaches the fixed build through the one float Q (YawFilterConfig.q_d): the two readings'
+    builds differ in the q_bb constant alone, and each q_bb is its float Q_bb in (deg/s)^2, rounded into P_bb's
+    format."""
+    ng, pn = config(tuning_b=b), config(tuning_b=b, b_tuning="process_noise")
+    fp_ng, fp_pn = ng.filter_params(), pn.filter_params()
+    assert set(np.flatnonzero(fp_ng != fp_pn)) == {fk.C_QBB}
+    np.testing.assert_array_equal(ng.params(), pn.params())
+    for cfg, params in ((ng, fp_ng), (pn, fp_pn)):
+        q_bb = cfg.filter.q_d[1, 1] * (180.0 / math.pi) ** 2
+        assert params[fk.C_QBB] == int(fxp.from_float(q_bb, cfg.formats.p_bb).raw)
+        assert params[fk.C_QBB + 1] == cfg.formats.p_bb.frac_bits
+    assert abs(fp_pn[fk.C_QBB] - fp_ng[fk.C_QBB] / b) <= 1.0  # B against B^2, to one LSB of the two roundings
 
 
 def test_c_reference_equals_the_model_on_10000_random_tick_sequences():

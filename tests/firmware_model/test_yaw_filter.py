@@ -157,12 +157,73 @@ def test_b5_converges_faster_than_b1(kind):
     assert np.median(times[1.0]) > 1.5 * np.median(times[5.0])  # thesis ratio 177.98 / 82.8 = 2.15
 
 
-def test_fixed_tracks_float_within_0_01_deg_rms():
-    """Digest 2.7 acceptance: |psi_fixed - psi_float| < 0.01 deg with the default formats."""
+@pytest.mark.parametrize("b", [0.5, 1.0, 5.0, 20.0])
+@pytest.mark.parametrize("a", [1.0, 2.5])
+def test_q_d_under_each_b_tuning_is_the_equation(a, b):
+    """Q_d = G Q G^T dt (thesis eqs 4.14-4.15, 3.26) with Q = diag(sigma_v^2, 2 sigma_b^2 / tau) and
+    G = diag(A, G_D): G_D = B for 'noise_gain', G_D = sqrt(B) for 'process_noise'."""
+    sv, sb, tau = 7.38e-3 * DEG, 3.33e-3 * DEG, 500.0
+    q = np.diag([sv**2, 2.0 * sb**2 / tau])
+    for reading, g_d in (("noise_gain", b), ("process_noise", math.sqrt(b))):
+        g = np.diag([a, g_d])
+        cfg = config(b, tuning_a=a, b_tuning=reading)
+        np.testing.assert_allclose(cfg.q_d, g @ q @ g.T * DT, rtol=1e-14, atol=0.0)
+        assert cfg.q_d[0, 1] == cfg.q_d[1, 0] == 0.0
+    ng, pn = config(b, tuning_a=a, b_tuning="noise_gain").q_d, config(b, tuning_a=a, b_tuning="process_noise").q_d
+    assert pn[0, 0] == ng[0, 0]  # A is a noise gain under both readings
+    assert pn[1, 1] == pytest.approx(ng[1, 1] / b, rel=1e-14)  # B against B^2
+    if b == 1.0:
+        np.testing.assert_array_equal(pn, ng)
+
+
+def test_bad_b_tuning_is_rejected_naming_the_field():
+    with pytest.raises(FirmwareError, match=r"b_tuning = 'linear'.*noise_gain \| process_noise"):
+        config(b_tuning="linear")
+
+
+def _bias_step_convergence(kind, b, reading, R=6):
+    """Convergence time (R,) after a -0.02 deg/s bias step at 200 s under continuous updates."""
+    t, _, rate, ref = synthetic(R=R, seconds=700.0, rate_deg_s=0.0, bias_deg_s=0.0)
+    step = t >= 200.0
+    rate = rate - np.where(step, 0.02 * DEG, 0.0)
+    _, _, bias, _ = run_filter(kind, config(b, b_tuning=reading), rate, ref, np.ones(t.size, dtype=bool))
+    return convergence_time_s(t[step], bias[:, step], -0.02 * DEG) - 200.0, bias
+
+
+@pytest.mark.parametrize("kind", ["float", "fixed"])
+def test_b5_converges_slower_as_process_noise_than_as_noise_gain(kind):
+    """Derived from the two Q's: Q_bb(process_noise) / Q_bb(noise_gain) = B / B^2 = 1 / B.  Less bias process
+    noise means a smaller steady-state P_bb, so a smaller bias gain K_b = P_yb / (P_yy + R) and a slower
+    convergence: for B > 1 'process_noise' converges later, for B < 1 sooner, and at B = 1 the two are one filter."""
+    slow, _ = _bias_step_convergence(kind, 5.0, "process_noise")
+    fast, _ = _bias_step_convergence(kind, 5.0, "noise_gain")
+    assert np.all(np.isfinite(slow)) and np.all(np.isfinite(fast))
+    assert np.median(slow) > 1.5 * np.median(fast)
+    one_pn, bias_pn = _bias_step_convergence(kind, 1.0, "process_noise", R=2)
+    one_ng, bias_ng = _bias_step_convergence(kind, 1.0, "noise_gain", R=2)
+    np.testing.assert_array_equal(bias_pn, bias_ng)
+    # B < 1: B > B^2, so 'process_noise' has the larger Q_bb and the larger steady-state bias gain
+    for b, faster in ((0.5, "process_noise"), (5.0, "noise_gain")):
+        p_bb = {}
+        for reading in ("noise_gain", "process_noise"):
+            kf = make_yaw_filter(kind, config(b, b_tuning=reading), 1)
+            for _ in range(3000):
+                kf.predict(np.zeros(1))
+                kf.update(np.zeros(1), ENC_VAR)
+            p_bb[reading] = float(kf.covariance[0, 1, 1])
+        slower = "noise_gain" if faster == "process_noise" else "process_noise"
+        assert p_bb[faster] > 1.5 * p_bb[slower]
+
+
+@pytest.mark.parametrize("b_tuning", ["noise_gain", "process_noise"])
+def test_fixed_tracks_float_within_0_01_deg_rms(b_tuning):
+    """Digest 2.7 acceptance: |psi_fixed - psi_float| < 0.01 deg with the default formats, under either reading
+    of B (the fixed build quantises the same float Q)."""
     t, true_yaw, rate, ref = synthetic(R=4, seconds=300.0, rate_deg_s=71.0)
     mask = (t % 50.0) < 20.0  # 20 s of updates, 30 s timeouts
-    _, yaw_f, bias_f, var_f = run_filter("float", config(), rate, ref, mask)
-    kf, yaw_x, bias_x, var_x = run_filter("fixed", config(), rate, ref, mask)
+    cfg = config(b_tuning=b_tuning)
+    _, yaw_f, bias_f, var_f = run_filter("float", cfg, rate, ref, mask)
+    kf, yaw_x, bias_x, var_x = run_filter("fixed", cfg, rate, ref, mask)
     diff = wrap_pi(yaw_x - yaw_f) / DEG
     assert np.sqrt(np.mean(diff**2)) < 0.01
     assert np.max(np.abs(diff)) < 0.01

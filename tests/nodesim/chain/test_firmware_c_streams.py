@@ -18,7 +18,9 @@ from firmware_model import c_reference
 from firmware_model import node_firmware as nf
 from firmware_model import node_survey as survey
 from nodesim.api import simulate
+from firmware_model.yaw_filter import B_TUNINGS
 from nodesim.chain.estimator import FirmwareLanes, alignment_ticks, alignment_window_s, yaw_rad_of_raw
+from nodesim.scenario.schema import FilterSection
 
 ROOT = Path(__file__).resolve().parents[3]
 LAB = sorted((ROOT / "scenarios" / "lab").glob("*.toml"))
@@ -39,15 +41,24 @@ def traced(monkeypatch):
     return calls
 
 
-@pytest.mark.parametrize("path", LAB, ids=[p.stem for p in LAB])
-def test_c_reference_equals_the_model_on_every_lab_node_stream(path, traced):
+# every lab scenario under the default filter.b_tuning, and the continuous one under the other reading of B
+OTHER_B_TUNING = next(b for b in B_TUNINGS if b != FilterSection.model_fields["b_tuning"].default)
+CASES = [(p, None) for p in LAB] + [(ROOT / "scenarios" / "lab" / "continuous.toml", OTHER_B_TUNING)]
+
+
+@pytest.mark.parametrize("path,b_tuning", CASES, ids=[p.stem + (f"-{b}" if b else "") for p, b in CASES])
+def test_c_reference_equals_the_model_on_every_lab_node_stream(path, b_tuning, traced):
     # the alignment offset forced on (the default sensor has no tilt, so "auto" would leave it out)
+    over = {"filter.b_tuning": b_tuning} if b_tuning else {}
     run = simulate(path, realizations=4, **{"filter.implementation": "fixed", "simulation.engine": "event",
-                                            "firmware.alignment": "slow_rotation"})
+                                            "firmware.alignment": "slow_rotation", **over})
+    if b_tuning:
+        assert run.scenario.filter.b_tuning == b_tuning
     ffi, lib = c_reference.load()
     buf = lambda a: ffi.from_buffer("int64_t[]", a)  # noqa: E731
     assert len(traced) == len(run.chain.nodes) >= 1
     for (fw, ticks), node in zip(traced.values(), run.chain.nodes):
+        assert fw.config.filter.b_tuning == run.scenario.filter.b_tuning  # the reading reached the firmware build
         inputs = np.stack([t[0] for t in ticks], 1)  # (R, K, 8)
         states = np.stack([t[1] for t in ticks], 1)  # (R, K, 11)
         outputs = np.stack([t[2] for t in ticks], 1)

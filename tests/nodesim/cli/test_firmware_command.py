@@ -39,3 +39,28 @@ def test_header_to_stdout_names_the_formats(capsys):
 def test_missing_scenario_is_a_clear_error(tmp_path, capsys):
     assert main(["firmware", "export-config", str(tmp_path / "nope.toml")]) == 2
     assert "cannot read scenario file" in capsys.readouterr().err
+
+
+def _filter_params(header: str) -> list[int]:
+    line = next(x for x in header.splitlines() if x.startswith("#define NF_FILTER_PARAMS_INIT"))
+    return [int(v.strip().rstrip("L")) for v in line.split("{", 1)[1].rsplit("}", 1)[0].split(",")]
+
+
+def test_b_tuning_reaches_the_header_as_q_bb_only(tmp_path, capsys):
+    """The exported build under each reading of B (filter.b_tuning): the headers differ in the quantised q_bb
+    constant and the tuning comment alone; the process-noise q_bb is the noise-gain one / B (B = 5)."""
+    from firmware_model import fixed_kernel as fk
+
+    text = (ROOT / "scenarios/lab/continuous.toml").read_text()
+    headers = {}
+    for reading in ("noise_gain", "process_noise"):
+        path = tmp_path / f"{reading}.toml"
+        path.write_text(text.replace("[filter]\n", f'[filter]\nb_tuning = "{reading}"\n', 1))
+        assert main(["firmware", "export-config", str(path)]) == 0
+        headers[reading] = capsys.readouterr().out
+        assert f"b_tuning = {reading}" in headers[reading]
+    ng, pn = (_filter_params(headers[r]) for r in ("noise_gain", "process_noise"))
+    assert [i for i, (a, b) in enumerate(zip(ng, pn)) if a != b] == [fk.C_QBB]
+    assert abs(pn[fk.C_QBB] - ng[fk.C_QBB] / 5.0) <= 1.0
+    differing = [(a, b) for a, b in zip(headers["noise_gain"].splitlines(), headers["process_noise"].splitlines()) if a != b]
+    assert len(differing) == 2  # the tuning comment and NF_FILTER_PARAMS_INIT

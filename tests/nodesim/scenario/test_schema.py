@@ -38,6 +38,7 @@ BAD_CASES = [
     ('[schedule]\nmode = "sometimes"\n', "schedule.mode", "'continuous'"),
     ('[sensor]\ngyro_arw_deg_per_sqrt_s = -1e-3\n', "sensor.gyro_arw_deg_per_sqrt_s", "greater than or equal to 0"),
     ('[motion]\ninclination_deg = 190.0\n', "motion.inclination_deg", "less than or equal to 180"),
+    ('[filter]\nb_tuning = "linear"\n', "filter.b_tuning", "'noise_gain' or 'process_noise'"),
     ('[metrics]\nwindow_start_s = 500.0\nwindow_end_s = 400.0\n', "metrics", "must be greater than window_start_s"),
     ('[simulation]\nduration_s = 100.0\n', "<top level>", "must not exceed simulation.duration_s"),
     ('[schedule]\nmode = "arbitrary"\nwindows = [[-5.0, 10.0, 1.0]]\n', "schedule", "windows[0] = [-5.0, 10.0, 1.0]: start_s and stop_s must be >= 0"),
@@ -155,3 +156,16 @@ def test_drilling_duration_check_is_the_programme_with_initial_tubes(initial):
     short = {**ok, "simulation": {"duration_s": needed - 0.5}, "metrics": {"window_start_s": 0.0, "window_end_s": 1.0}}
     with pytest.raises(ScenarioError, match=rf"drilling programme of 10 tubes, {initial} of them .*allowed: >= {needed:.6g} s"):
         parse_scenario(short)
+
+
+def test_b_tuning_is_checked_and_reaches_the_filter_config():
+    """filter.b_tuning (thesis eqs 4.14-4.15, how B enters the bias process noise) is validated and is what the
+    float filter and the fixed build are configured with (nodesim.chain.estimator: one YawFilterConfig)."""
+    from nodesim.chain.estimator import filter_config, firmware_config
+
+    with pytest.raises(ScenarioError, match=r"filter.b_tuning.*'noise_gain' or 'process_noise'"):
+        Scenario().with_overrides(**{"filter.b_tuning": "B^2"})
+    for reading in ("noise_gain", "process_noise"):
+        s = Scenario().with_overrides(**{"filter.b_tuning": reading})
+        assert filter_config(s).b_tuning == reading
+        assert firmware_config(s).filter == filter_config(s)
