@@ -185,10 +185,11 @@ class Run:
 
         return yaw_figure(self._tables["timeseries"], self.rotation_end_s, f"{self.scenario.name}: realization 0")
 
-    def plot_wellpath(self, tool: str = "mpu6500_filtered", sigma: str = "2"):
-        """The received surveys' wellpath (realization 0, plan view) with its ISCWSA uncertainty ellipses for
-        ``tool`` at ``sigma`` ("1", "2" or "95") as a matplotlib Figure; drilling runs only."""
-        from nodesim.ground import load_tool, make_survey, propagate
+    def plot_wellpath(self, tool: str = "mpu6500_filtered", sigma: str = "2", propagation: str = "iscwsa"):
+        """The received surveys' wellpath (realization 0, plan view) with its uncertainty ellipses for
+        ``tool`` at ``sigma`` ("1", "2" or "95") as a matplotlib Figure; drilling runs only.  ``propagation``:
+        "iscwsa" (standard, default) or "thesis" (the thesis-replica propagation, per-axis, no cross terms)."""
+        from nodesim.ground import load_tool, make_survey, position_uncertainty
         from nodesim.ground.ellipsoid import confidence_scale
         from nodesim.ground.wellpath_plot import uncertainty_figure
 
@@ -198,7 +199,7 @@ class Run:
                                f"{self.scenario.motion.kind!r}; wellpaths come from drilling runs)")
         survey = make_survey(g["md_m"], g["inc_deg"], g["azi_deg"], g["time_s"], where="ground_survey",
                              sigma_inc_deg=g["sigma_inc_deg"], sigma_azi_deg=g["sigma_azi_deg"])
-        u = propagate(survey, load_tool(tool))
+        u = position_uncertainty(survey, load_tool(tool), propagation=propagation)
         return uncertainty_figure(u, confidence_scale(sigma, dof=1),
                                   f"{self.scenario.name}: realization 0, tool {u.model.name}")
 

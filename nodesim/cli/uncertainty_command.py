@@ -1,21 +1,43 @@
-"""``nodesim uncertainty``: wellpath and ISCWSA position uncertainty per station of a survey CSV."""
+"""``nodesim uncertainty``: wellpath and position uncertainty per station of a survey CSV.
+
+Two independent choices: ``--method`` is the wellpath (survey calculation) method, minimum curvature or
+balanced tangential, as before; ``--propagation`` is how the error sources become position uncertainty:
+``iscwsa`` (standard ISCWSA, the default) or ``thesis`` (the replica of the thesis's wellbore tables,
+:mod:`nodesim.ground.thesis_propagation`).  The issue asked for ``--method thesis``; ``--method`` already
+names the wellpath calculation, and the replica runs on either wellpath (its uncertainties do not depend on
+it), so folding both into one option would hide one of the two choices.  ``--method thesis`` is refused
+with a pointer to ``--propagation thesis``.
+"""
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
 from nodesim.io.rundir import dumps_json
 
+WELLPATH_METHODS = ("minimum_curvature", "balanced_tangential")
+
+
+def wellpath_method(value: str) -> str:
+    if value in WELLPATH_METHODS:
+        return value
+    hint = " ('thesis' is a propagation: use --propagation thesis)" if value == "thesis" else ""
+    raise argparse.ArgumentTypeError(
+        f"invalid wellpath method {value!r}; choose from {', '.join(WELLPATH_METHODS)}{hint}"
+    )
+
 
 def register(sub) -> None:
     p = sub.add_parser(
         "uncertainty",
-        help="wellpath and ISCWSA position uncertainty per station",
+        help="wellpath and ISCWSA (or thesis-replica) position uncertainty per station",
         description=(
             "Read a survey CSV (columns md_m,inc_deg,azi_deg and optionally time_s), compute the "
             "minimum-curvature wellpath and the ISCWSA covariance of every station for a tool model, and "
-            "print the N/E/TVD uncertainties."
+            "print the N/E/TVD uncertainties.  --propagation thesis replaces the ISCWSA propagation by the "
+            "replica of the thesis's wellbore tables (per-axis running sums, no cross-covariance)."
         ),
     )
     p.add_argument(
@@ -40,20 +62,34 @@ def register(sub) -> None:
     )
     p.add_argument("--units", choices=("m", "ft"), default=None,
                    help="depth unit of the input: ft for a CSV with an md_ft column or a LAS file without a depth unit (output stays in metres)")
-    p.add_argument("--method", choices=("minimum_curvature", "balanced_tangential"), default="minimum_curvature")
+    p.add_argument(
+        "--method",
+        type=wellpath_method,
+        default="minimum_curvature",
+        metavar="{" + ",".join(WELLPATH_METHODS) + "}",
+        help="wellpath (survey calculation) method (default minimum_curvature)",
+    )
+    p.add_argument(
+        "--propagation",
+        choices=("iscwsa", "thesis"),
+        default="iscwsa",
+        help="position-uncertainty propagation: iscwsa (standard, default) or thesis (replica of the thesis's "
+        "wellbore tables 4.5-4.17: per-station running sums, accelerometer bias in inclination only; "
+        "see nodesim.ground.thesis_propagation)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     import numpy as np
 
-    from nodesim.ground import load_tool, propagate
+    from nodesim.ground import load_tool, position_uncertainty
     from nodesim.ground.survey import read_survey_file
     from nodesim.ground.ellipsoid import confidence_scale, horizontal_ellipse, nev_to_hla
 
     survey = read_survey_file(Path(args.survey), args.seconds_per_station, args.units)
     model = load_tool(args.tool)
-    u = propagate(survey, model, method=args.method)
+    u = position_uncertainty(survey, model, propagation=args.propagation, method=args.method)
     model = u.model  # includes the survey's own sigma columns, if any
     scale = confidence_scale(args.sigma, dof=1)
     sd = np.sqrt(np.clip(np.einsum("nii->ni", u.cov_nev_m2), 0.0, None))
@@ -90,13 +126,26 @@ def run(args) -> int:
             "sigma": args.sigma,
             "scale": scale,
             "method": args.method,
+            "propagation": args.propagation,
             "sources": [s.as_dict() for s in model.sources],
             "stations": stations,
         }
+        if args.propagation == "thesis":
+            out["thesis_rules"] = {
+                "sensor_mode": u.rules.sensor_mode,
+                "gyro_mode": u.rules.gyro_mode,
+                "gyro_lever_sin_i": u.rules.gyro_lever_sin_i,
+                "scale_factor_as_angle": u.rules.scale_factor_as_angle,
+                "depth_mode": u.rules.depth_mode,
+                "basis": u.rules.basis,
+                "terms": [{"code": t.code, "mode": t.mode} for t in u.terms],
+                "folded": [{"code": c, "why": why} for c, why in u.skipped],
+            }
         sys.stdout.write(dumps_json(out).decode())
         return 0
     label = {"1": "1 sigma", "2": "2 sigma", "95": "95 % per axis"}[args.sigma]
-    print(f"tool {model.name}: {len(model.sources)} error sources; uncertainties at {label} [m]")
+    how = "ISCWSA" if args.propagation == "iscwsa" else "thesis-replica (per-axis running sums)"
+    print(f"tool {model.name}: {len(model.sources)} error sources; {how} uncertainties at {label} [m]")
     header = ("md_m", "inc_deg", "azi_deg", "n_m", "e_m", "tvd_m", "+-n_m", "+-e_m", "+-tvd_m")
     print("  ".join(f"{h:>10}" for h in header))
     for k in range(len(survey)):

@@ -119,6 +119,10 @@ def test_plots_are_figures(lab_run, drilling_run):
     assert isinstance(lab_run.plot_yaw(), Figure)
     fig = drilling_run.plot_wellpath(tool="mpu6500_filtered", sigma="2")
     assert isinstance(fig, Figure) and len(fig.axes) == 2
+    fig = drilling_run.plot_wellpath(tool="mpu6500_filtered", sigma="2", propagation="thesis")
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    with pytest.raises(nodesim.NodesimError, match="propagation 'x' unknown; allowed: iscwsa, thesis"):
+        drilling_run.plot_wellpath(propagation="x")
     with pytest.raises(nodesim.NodesimError, match="no surveys to plot"):
         lab_run.plot_wellpath()
 

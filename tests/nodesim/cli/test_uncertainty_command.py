@@ -87,3 +87,56 @@ def test_sigma_columns_become_sources(tmp_path, capsys):
     assert main(["uncertainty", str(p), "--tool", "mpu6500_filtered", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert "SURVEY-AZ" in {s["code"] for s in data["sources"]}
+
+
+def test_propagation_thesis(capsys):
+    """--propagation thesis: the replica's numbers (table 4.14 iPST-RQH A at SS10: 0.574 cm, 2 sigma), the rules
+    in the JSON, and the same uncertainties on either wellpath method."""
+    out = {}
+    for method in ("minimum_curvature", "balanced_tangential"):
+        assert main(["uncertainty", str(WB1), "--tool", "ipst_rqh", "--json", "--sigma", "2", "--propagation", "thesis",
+                     "--method", method]) == 0  # fmt: skip
+        out[method] = json.loads(capsys.readouterr().out)
+    data = out["minimum_curvature"]
+    assert data["propagation"] == "thesis" and data["method"] == "minimum_curvature"
+    assert data["thesis_rules"]["sensor_mode"] == "R"
+    assert {"code": "ABXY-TI2S", "why": "the table's one accelerometer x/y bias, already counted as ABXY-TI1S"} in (
+        data["thesis_rules"]["folded"])
+    last = data["stations"][-1]
+    assert 100 * last["sigma_e_m"] == pytest.approx(0.5855, abs=1e-3)
+    assert 100 * last["sigma_e_m"] == pytest.approx(0.574, rel=0.05)
+    cov = np.array(last["cov_nev_m2"])
+    assert np.allclose(cov, np.diag(np.diag(cov)))  # per-axis sums: no cross terms
+    bt = out["balanced_tangential"]["stations"][-1]
+    assert bt["sigma_e_m"] == last["sigma_e_m"] and bt["e_m"] != last["e_m"]
+    assert main(["uncertainty", str(WB1), "--tool", "ipst_rqh", "--json", "--sigma", "2"]) == 0
+    iscwsa = json.loads(capsys.readouterr().out)
+    assert iscwsa["propagation"] == "iscwsa"
+    assert iscwsa["stations"][-1]["sigma_e_m"] > 3 * last["sigma_e_m"]  # 1.92 cm under ISCWSA
+    assert main(["uncertainty", str(WB1), "--tool", "ipst_rqh", "--propagation", "thesis"]) == 0
+    assert "thesis-replica (per-axis running sums) uncertainties at 1 sigma" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--propagation", "bogus"], "argument --propagation: invalid choice: 'bogus' (choose from 'iscwsa', 'thesis')"),
+        (["--method", "thesis"], "invalid wellpath method 'thesis'; choose from minimum_curvature, balanced_tangential "
+                                 "('thesis' is a propagation: use --propagation thesis)"),
+        (["--method", "spline"], "invalid wellpath method 'spline'; choose from minimum_curvature, balanced_tangential"),
+    ],
+)
+def test_bad_propagation_or_method_exits_2(args, message, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["uncertainty", str(WB1), "--tool", "dip"] + args)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err, err
+
+
+def test_thesis_propagation_of_a_tool_without_thesis_rules_is_a_clear_error(tmp_path, capsys):
+    tool = tmp_path / "mag.toml"
+    tool.write_text('name = "mag"\n[[sources]]\ncode = "MBZ"\nweight = "MBZ"\nmagnitude = 70.0\nunit = "nT"\n'
+                    'propagation = "S"\n')  # fmt: skip
+    assert main(["uncertainty", str(WB1), "--tool", str(tool), "--propagation", "thesis"]) == 2
+    assert "error source MBZ (weight MBZ) has no thesis rule" in capsys.readouterr().err
