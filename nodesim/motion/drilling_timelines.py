@@ -103,10 +103,10 @@ def drilling_motion(scenario: Scenario) -> ChainMotion:
     t_in = proc.insertion_times_s()
 
     def attitude(index: int, t_s: np.ndarray) -> NodeAttitude:
-        """Node ``index``'s truth at chain times ``t_s``, O(K) (DrillingProcess.node_truth); at rest before insertion."""
+        """Node ``index``'s truth at chain times ``t_s``, O(K) (DrillingProcess.node_attitude); at rest before
+        insertion."""
         k = n - 1 - index
-        truth = proc.node_truth(k, np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k]))
-        return NodeAttitude(truth.yaw_rad, truth.inclination_rad, truth.azimuth_rad)
+        return NodeAttitude(*proc.node_attitude(k, np.maximum(np.asarray(t_s, dtype=float) - lead, t_in[k])))
 
     stops, bottom_stops = [], []
     for p in surveys:

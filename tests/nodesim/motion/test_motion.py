@@ -271,3 +271,24 @@ def test_node_timeline_holding_by_bisection_matches_the_intervals():
     assert not NodeTimeline(1, 0.0, 60.0, (), 0.0).holding(100.0)
     with pytest.raises(NodesimError, match=r"holds\[1\] = \(5.0, 30.0\)"):
         NodeTimeline(1, 0.0, 60.0, ((0.0, 10.0), (5.0, 30.0)), 0.0)
+
+
+@pytest.mark.parametrize("rows, bound_rad", [
+    ([[0, 2, 120], [22, 6, 135]], 5e-9),  # the field scenario's path
+    ([[0, 10, 0], [30, 40, 60], [60, 70, 100], [90, 80, 170]], 5e-8),  # doglegs of ~1 deg/m
+    ([[0, 0.5, 10], [30, 30, 200], [60, 0.2, 10]], 1e-5),  # intervals passing near vertical
+    ([[0, 0, 0], [100, 0, 0], [400, 30, 45], [1000, 90, 45]], 1e-5),  # vertical, build, horizontal
+])
+def test_attitude_along_is_the_minimum_curvature_attitude_within_its_bound(rows, bound_rad):
+    """Wellpath.attitude_along (linear on a 1 cm grid with the stations on it) against the exact slerp of
+    attitude_at at random MDs: inclination, and azimuth weighted by sin I (what reaches the sensors)."""
+    from nodesim.motion.drilling import Wellpath
+
+    wp = Wellpath.from_degrees(rows)
+    md = np.random.default_rng(1).uniform(rows[0][0], rows[-1][0], 100_000)
+    md = np.concatenate([md, wp.md_m])  # the stations themselves
+    inc, azi = wp.attitude_at(md)
+    inc2, azi2 = wp.attitude_along(md)
+    assert np.abs(inc - inc2).max() < bound_rad
+    assert np.abs(np.sin(inc) * np.angle(np.exp(1j * (azi - azi2)))).max() < bound_rad
+    assert np.all((azi2 >= 0.0) & (azi2 < 2.0 * np.pi))
