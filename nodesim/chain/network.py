@@ -242,7 +242,7 @@ class Network:
             if not sending.any():
                 continue
             node, above = self.nodes[node_id - 1], self.nodes[node_id - 2] if node_id > top else None
-            link = self.up_links[node_id - 1]
+            link = self.up_links[node_id - 1 if above else 0]  # the top node's hop to the surface is hop 1
             tr = link.transfer(np.where(sending, at, np.nan), sending, node.radio,
                                above.radio if above else self.surface, above.dead_at_s if above else np.inf)
             hops.append((link, tr))

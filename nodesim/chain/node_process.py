@@ -194,11 +194,12 @@ class ChainNode:
         return True
 
     def _encoder_exchange(self, k: int, t: float):
-        """Request and reply over hop 1; (have (R,), t_read (R,), reference yaw (R,), rate (R,)) as read by the
+        """Request and reply over hop 1 (the surface link: in a drilling run it reaches whichever node is on top);
+        (have (R,), t_read (R,), reference yaw (R,), rate (R,)) as read by the
         encoder, the reply's arrival set as this tick's ready time (the float path's :meth:`_encoder_update` and
         the fixed path share it)."""
         self.opportunity = True
-        link, surface = self.net.down_links[self.index], self.net.surface
+        link, surface = self.net.down_links[0], self.net.surface  # hop 1: the surface to whichever node is on top
         R = self.yaw.shape[0]
         request = link.transfer(t, np.ones(R, dtype=bool), self.radio, surface)
         t_read = np.where(request.delivered, request.arrival_s, t)

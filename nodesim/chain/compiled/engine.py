@@ -70,9 +70,10 @@ def choose_engine(scenario: Scenario) -> str:
 class _Links:
     """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback; built, with
     its draws, only if phase 1 needs it), up links 2N + h (hop h, surveys), survey skip links 3N + h (node h's
-    surveys past a silent neighbour, to node h - 2; built on use), as realization-major arrays (:mod:`.mac_kernel`).  ``hops_up[h]``: how many surveys cross hop h (what its draws are sized for)."""
+    surveys past a silent neighbour, to node h - 2; built on use), as realization-major arrays (:mod:`.mac_kernel`).  ``hops_up[h]``: how many surveys cross hop h, ``asks``: the encoder requests (what their
+    draws are sized for)."""
 
-    def __init__(self, net, hops_up: np.ndarray):
+    def __init__(self, net, hops_up: np.ndarray, asks: int):
         N, R = net.n_nodes, net.R
         self.net = net
         self.links: list = list(net.down_links) + [None] * N + list(net.up_links) + [None] * N
@@ -118,8 +119,8 @@ class _Links:
             mean_attempts = min(attempts, 1.2 / max(p_ok, 1.0 / attempts) + 0.05)
             return int(math.ceil(frames * per_attempt * mean_attempts)) + 64
 
-        for h in range(N):
-            self.sizes[:, h] = expected(h, net.nodes[max(h - 1, 0)].sig.t_s.size * (2 if h == 0 else 1))
+        for h in range(N):  # hop 0: the encoder requests and replies of whichever node is on top
+            self.sizes[:, h] = expected(h, 2 * asks if h == 0 else net.nodes[h - 1].sig.t_s.size)
             if hops_up[h]:
                 self.sizes[:, 2 * N + h] = expected(2 * N + h, int(hops_up[h]))
         self.buffer = np.empty(0)
@@ -246,11 +247,14 @@ def _survey_plan(net, T: np.ndarray, plan: np.ndarray) -> tuple:
 
 
 def _hops_up(N: int, senders: list, tops: np.ndarray) -> np.ndarray:
-    """(N,) how many surveys cross each up hop h (hops top .. sender of every survey)."""
+    """(N,) how many surveys cross each up hop h (of every survey: the hops between its sender and the top node, and
+    hop 0 from the top node to the surface)."""
     d = np.zeros(N + 1, dtype=np.int64)
-    for (n, _, _), top in zip(senders, tops):
-        d[top] += 1
+    for (n, _, _), top in zip(senders, tops):  # hops top + 1 .. n between nodes, then hop 0 to the surface
+        d[top + 1] += 1
         d[n + 1] -= 1
+        d[0] += 1
+        d[1] -= 1
     return np.cumsum(d[:N])
 
 
@@ -455,7 +459,7 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None):
         T[:K[i], i] = node.sig.t_s
     plan = tp.tick_plan(net.nodes, int(K.max()))
     survey_plan = _survey_plan(net, T, plan)
-    links = _Links(net, _hops_up(net.n_nodes, survey_plan[0], survey_plan[4]))
+    links = _Links(net, _hops_up(net.n_nodes, survey_plan[0], survey_plan[4]), int((plan == tp.ASK).sum()))
     net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
     net.engine = "compiled"
     links.store(stats)

@@ -13,7 +13,7 @@ as ``env.timeout(t - env.now)`` schedules it.  Per tick of node n, as its plan s
   * the first tick from its filter start (``START``): the filter starts (no update, no transmission);
   * holding during a tube insertion above it (``HOLD``): its inbox is emptied, nothing is sent;
   * running: the top node of the time asks the encoder when the schedule says so (``ASK``: request and reply over
-    its own down link); the others (``RUN``) take, per realization, the newest fresh packet that has arrived
+    hop 1, the surface link, whichever node is on top); the others (``RUN``) take, per realization, the newest fresh packet that has arrived
     (sequence number above the last one used, age <= ``max_update_age_s``; older fresh ones are dropped,
     duplicates and stale packets counted);
   * then a node that is not the bottom one transmits in the realizations that applied an update (or in all of
@@ -196,8 +196,8 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
     min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age,
     src_node, src_tick (R, N, K), encoder t_read (R, A, K) (row ``ask_row[n]`` of the A nodes that ever ask), stale
     (R, N), duplicate (R, N)); ``running`` is the
-    same in every realization and written by realization 0.  Links: down link h = h (0: the top node's encoder
-    exchange when node 1 is on top; node n's when it is), skip link of node n = N + n, up link h = 2N + h, survey skip link
+    same in every realization and written by realization 0.  Links: down link h = h (0: the surface link, the encoder
+    exchange of whichever node is on top), skip link of node n = N + n, up link h = 2N + h, survey skip link
     of node h (up to h - 2) = 3N + h.
     Returns a status code."""
     N = T.shape[1]
@@ -227,18 +227,18 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
             ready = t
             valid = every_tick and is_running
             if code == ASK:
-                got, arr, end, short, _, _ = transfer(n, r, t, n, surface, np.inf, chan, draws, radio, stats, mac,
+                got, arr, end, short, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac,
                                                       bits, scratch)
                 if short:
-                    need[0], need[1], need[2] = n, r, e
+                    need[0], need[1], need[2] = 0, r, e
                     return NEED_DRAWS
                 t_read = arr if got else t
                 enc_t_read[r, ask_row[n], k] = t_read
                 if got:
-                    have, arr2, end2, short, _, _ = transfer(n, r, end, surface, n, np.inf, chan, draws, radio,
+                    have, arr2, end2, short, _, _ = transfer(0, r, end, surface, n, np.inf, chan, draws, radio,
                                                              stats, mac, bits, scratch)
                     if short:
-                        need[0], need[1], need[2] = n, r, e
+                        need[0], need[1], need[2] = 0, r, e
                         return NEED_DRAWS
                     if have:
                         applied[r, n, k] = True
@@ -264,11 +264,11 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
                 top = s_top[s]
                 h = n
                 while h >= top:  # hop by hop up to the top node, then the ground station
-                    rx = h - 1 if h > top else surface
-                    got, arr, end, short, _, _ = transfer(2 * N + h, r, at, h, rx, dead_at[rx] if h > top else np.inf,
+                    rx, up = (h - 1, 2 * N + h) if h > top else (surface, 2 * N)  # the top node's: hop 1's up link
+                    got, arr, end, short, _, _ = transfer(up, r, at, h, rx, dead_at[rx] if h > top else np.inf,
                                                           chan, draws, radio, stats, mac, bits, scratch)
                     if short:
-                        need[0], need[1], need[2] = 2 * N + h, r, e
+                        need[0], need[1], need[2] = up, r, e
                         return NEED_DRAWS
                     if got:
                         at, h = arr, h - 1

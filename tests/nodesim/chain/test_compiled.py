@@ -224,6 +224,11 @@ def test_drilling_cases_exercise_insertions_holds_and_surveys():
     assert not all(n.running[n.t_s >= n.present_from_s].all() for n in run.nodes)  # holds
     for node, tl in zip(run.nodes, run.motion.timelines):  # each node was the encoder-aided top node in its time
         assert node.update_mask[:, node.t_s < tl.top_until_s].sum(axis=1).min() > 10
+        top = node.running & (node.t_s < tl.top_until_s)  # over hop 1, the lossless cable, whichever node is on top
+        assert node.update_mask[:, top].all()
+    assert (run.down_links[0].stats.frames > 2 * run.nodes[0].running.sum()).all()
+    arrived = np.sum([np.isfinite(g.arrival_s) for g in run.surveys], axis=0)  # every survey's last hop is hop 1
+    assert np.array_equal(run.up_links[0].stats.delivered, arrived) and arrived.min() >= 1
     _, run = _both(CASES["drilling, dead node on the survey path"])  # simple links: no fallback
     assert np.isnan(run.surveys[-1].arrival_s).all() and np.isfinite(run.surveys[0].arrival_s).all()
 
