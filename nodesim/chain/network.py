@@ -183,8 +183,8 @@ class Network:
         self.nodes: list[ChainNode] = []
         ticks = [self._tick_times(i) for i in range(c.nodes)]
         shared_truth(scenario, self.motion, self.dt_s)  # the lab's per-sample truth, built once before the threads
-        signals = threads.map_nodes(lambda i: node_signals(scenario, self.motion, streams, i, ticks[i], self.dt_s),
-                                    c.nodes, R)
+        motion, dt = self.motion, self.dt_s  # a worker thread may hold the task a moment after it ran: not self
+        signals = threads.map_nodes(lambda i: node_signals(scenario, motion, streams, i, ticks[i], dt), c.nodes, R)
         for i, (t, sig) in enumerate(zip(ticks, signals)):
             node = ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)
@@ -339,7 +339,8 @@ class Network:
     def result(self) -> ChainRun:
         """The run's records (after :meth:`run`, or after the compiled engine filled them in)."""
         points = self.scenario.filter.moving_average_points
-        runs = tuple(threads.map_nodes(lambda i: _node_run(self.nodes[i], points), self.n_nodes, self.R))
+        nodes = self.nodes  # (not self in the task: the nodes refer to the network weakly)
+        runs = tuple(threads.map_nodes(lambda i: _node_run(nodes[i], points), self.n_nodes, self.R))
         skips = tuple(s for links in (self._skip_links, self._up_skip_links) for _, s in sorted(links.items())
                       if s.stats.frames.any())
         lost = sum(link.stats.lost for link in self.down_links + self.up_links + list(skips))

@@ -142,18 +142,49 @@ class NodeCounts:
     per_sample_ticks: int  # (tick, realization) pairs of either triad read per sample
 
 
+@njit(cache=True, inline="always")
+def _force(inc, azi, yaw):
+    """g [sin I cos(A - psi), sin I sin(A - psi), cos I] at one sample (:func:`sensor_force`)."""
+    tau = azi - yaw
+    si = math.sin(inc)
+    return G0_M_S2 * (math.cos(tau) * si), G0_M_S2 * (math.sin(tau) * si), G0_M_S2 * math.cos(inc)
+
+
+@njit(cache=True, nogil=True)
+def _forces(inc, azi, yaw, out) -> None:
+    for j in range(inc.size):
+        out[j, 0], out[j, 1], out[j, 2] = _force(inc[j], azi[j], yaw[j])
+
+
 def sensor_force(inclination_rad, azimuth_rad, yaw_rad) -> np.ndarray:
     """Noise-free sensor-frame specific force (..., 3) m/s^2: g [sin I cos(A - psi), sin I sin(A - psi), cos I], the
     third row of :func:`nodesim.sensors.magnetometer.body_to_neu` (:func:`~nodesim.sensors.magnetometer.specific_force_body`)
-    without building the matrices (the chain evaluates it at every sample)."""
+    without building the matrices (the chain evaluates it at every sample, :class:`SampleTruth`)."""
     inc, azi, yaw = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (inclination_rad, azimuth_rad, yaw_rad)))
-    tau = azi - yaw
-    si = np.sin(inc)
-    out = np.empty(inc.shape + (3,))
-    out[..., 0] = G0_M_S2 * (np.cos(tau) * si)
-    out[..., 1] = G0_M_S2 * (np.sin(tau) * si)
-    out[..., 2] = G0_M_S2 * np.cos(inc)
-    return out
+    out = np.empty((inc.size, 3))
+    _forces(np.ascontiguousarray(inc).ravel(), np.ascontiguousarray(azi).ravel(), np.ascontiguousarray(yaw).ravel(),
+            out)
+    return out.reshape(inc.shape + (3,))
+
+
+@njit(cache=True, nogil=True)
+def _sample_sums(inc, azi, yaw, rate, gyro_lsb, accel_lsb, u_gz, u_a, sum_gz, sum_a, umax) -> None:
+    """One pass over the samples: the truth in LSB (z gyro ``rate`` x ``gyro_lsb``, accelerometer :func:`_force` x
+    ``accel_lsb``), its prefix sums (added in sample order, as ``numpy.cumsum`` adds) and the largest |u| per axis
+    (``umax`` = (z gyro, accel x, y, z))."""
+    sum_gz[0] = 0.0
+    sum_a[0, 0], sum_a[0, 1], sum_a[0, 2] = 0.0, 0.0, 0.0
+    for i in range(4):
+        umax[i] = 0.0
+    for j in range(inc.size):
+        g = rate[j] * gyro_lsb
+        f0, f1, f2 = _force(inc[j], azi[j], yaw[j])
+        a0, a1, a2 = f0 * accel_lsb, f1 * accel_lsb, f2 * accel_lsb
+        u_gz[j], u_a[j, 0], u_a[j, 1], u_a[j, 2] = g, a0, a1, a2
+        sum_gz[j + 1] = sum_gz[j] + g
+        sum_a[j + 1, 0], sum_a[j + 1, 1], sum_a[j + 1, 2] = sum_a[j, 0] + a0, sum_a[j, 1] + a1, sum_a[j, 2] + a2
+        umax[0], umax[1] = max(umax[0], abs(g)), max(umax[1], abs(a0))
+        umax[2], umax[3] = max(umax[2], abs(a1)), max(umax[3], abs(a2))
 
 
 def tilt_matrices(tilt_rad: np.ndarray) -> np.ndarray:
@@ -178,30 +209,31 @@ def _first_sample_at_or_after(t_s: float, rate_hz: float) -> int:
     return j
 
 
-def sample_truth(imu: ChainImu, motion: ChainMotion, node_index: int, j_lo: int, j_hi: int):
-    """(z-gyro truth (S,), accelerometer truth (S, 3)) in LSB at the samples j_lo <= j < j_hi (before tilt, scale
-    factor and bias)."""
-    t_j = np.arange(j_lo, j_hi, dtype=np.int64) / imu.sample_rate_hz
-    u_gz = motion.rotation.rate_rad_s(t_j) * imu.gyro_lsb_per_rad_s
-    att = motion.attitude(node_index, t_j)
-    return u_gz, sensor_force(att.inclination_rad, att.azimuth_rad, att.yaw_rad) * imu.accel_lsb_per_m_s2
-
-
 class SampleTruth:
-    """:func:`sample_truth` on the sample grid j_lo <= j < j_hi, and its prefix sums, so that a tick's sum of the
-    noise-free readings is one difference (O(1) per tick, not O(samples)):
+    """The noise-free readings (LSB, before tilt, scale factor and bias) on the sample grid j_lo <= j < j_hi (at
+    t_j = j / sample_rate_hz: the z gyro the string's spin rate, the accelerometer :func:`sensor_force` of the
+    node's attitude) and their prefix sums, so that a tick's sum of the noise-free readings is one difference
+    (O(1) per tick, not O(samples)):
 
         sum_{first_k <= j < first_k + n_k} u_j = U[first_k + n_k] - U[first_k],   U[m] = sum_{j_lo <= j < m} u_j
 
-    (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale).  One per run where every node
-    has the same attitude (the lab's rigid string, :func:`nodesim.chain.sensing.shared_truth`), else one per node."""
+    (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale), all in one compiled pass
+    (:func:`_sample_sums`).  One per run where every node has the same attitude (the lab's rigid string,
+    :func:`nodesim.chain.sensing.shared_truth`), else one per node."""
 
     def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0):
         self.j_lo, self.j_hi = j_lo, j_hi
-        self.u_gz, self.u_a = sample_truth(imu, motion, node_index, j_lo, j_hi)
-        self.umax = (np.array([0.0, 0.0, np.abs(self.u_gz).max(initial=0.0)]), np.abs(self.u_a).max(axis=0, initial=0.0))
-        self._sum_gz = np.concatenate([[0.0], np.cumsum(self.u_gz)])
-        self._sum_a = np.concatenate([np.zeros((1, 3)), np.cumsum(self.u_a, axis=0)])
+        t_j = np.arange(j_lo, j_hi, dtype=np.int64) / imu.sample_rate_hz
+        rate = np.ascontiguousarray(motion.rotation.rate_rad_s(t_j), dtype=float)
+        att = motion.attitude(node_index, t_j)
+        inc, azi, yaw = (np.ascontiguousarray(np.broadcast_to(x, t_j.shape), dtype=float)
+                         for x in (att.inclination_rad, att.azimuth_rad, att.yaw_rad))
+        S = t_j.size
+        self.u_gz, self.u_a = np.empty(S), np.empty((S, 3))
+        self._sum_gz, self._sum_a, umax = np.empty(S + 1), np.empty((S + 1, 3)), np.empty(4)
+        _sample_sums(inc, azi, yaw, rate, imu.gyro_lsb_per_rad_s, imu.accel_lsb_per_m_s2, self.u_gz, self.u_a,
+                     self._sum_gz, self._sum_a, umax)
+        self.umax = (np.array([0.0, 0.0, umax[0]]), umax[1:].copy())
 
     def covers(self, a: int, b: int) -> bool:
         return self.j_lo <= a and b <= self.j_hi
