@@ -97,13 +97,15 @@ class Variable:
         return trial.suggest_float(self.key, self.low, self.high, step=self.step, log=self.log)
 
     def grid(self) -> list:
-        """Every value of a categorical or stepped variable (for exhaustive comparisons)."""
+        """Every value of a categorical, stepped or integer variable (for exhaustive comparisons; an int steps by 1
+        unless given a step)."""
         if self.kind == "categorical":
             return list(self.choices)
-        if self.step is None:
+        step = self.step if self.step is not None else (1.0 if self.kind == "int" else None)  # as suggest_int
+        if step is None:
             raise NodesimError(f"variable {self.key}: a grid needs a step")
-        n = int(math.floor((self.high - self.low) / self.step + 1e-9))
-        values = [self.low + i * self.step for i in range(n + 1)]
+        n = int(math.floor((self.high - self.low) / step + 1e-9))
+        values = [self.low + i * step for i in range(n + 1)]
         return [int(v) for v in values] if self.kind == "int" else [float(v) for v in values]
 
     def describe(self) -> dict:

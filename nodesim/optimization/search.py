@@ -191,9 +191,12 @@ def _manifest(problem: Problem, out: Path, executor, old: dict | None, n_trials:
 
 def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None = None, resume: bool = False,
                quiet: bool = False, run_fn: Callable[[RunTask], dict] = run_trial, payload: dict | None = None,
-               stream=None) -> dict:
+               stream=None, max_evaluations: int | None = None) -> dict:
     """Run (or resume) the study of ``problem`` in ``out_dir`` until it holds ``n_trials`` finished trials.
 
+    ``max_evaluations``: also stop once the study holds that many runs (finished trials that were not a repeat
+    of an earlier point; a batch is shortened so as not to pass it), ``n_trials`` then capping the trials
+    (benchmarks giving a sampler a budget of runs).
     Returns the manifest (also written to ``DIR/optimization.json``); the tables are built by
     :func:`nodesim.optimization.outcome.finish`.
     """
@@ -224,16 +227,19 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
         if t.state == TrialState.COMPLETE and run.get("status") == "ok" and "reused_from" not in t.user_attrs:
             cache[point_key(dict(t.params))] = _record_of(t)
     evaluations = 0
+    runs = sum(t.state in (TrialState.COMPLETE, TrialState.FAIL) and "reused_from" not in t.user_attrs
+               for t in existing)
+    run_cap = math.inf if max_evaluations is None else max_evaluations
     progress = Progress(max(n_trials, finished), already_done=finished, quiet=quiet, stream=stream)
     t0 = time.perf_counter()
     try:
-        while finished < n_trials or pending:
+        while (finished < n_trials and runs < run_cap) or pending:
             if pending:  # asked before an interruption, never told: run them again with their stored values
                 batch = [(t.number, t._trial_id, {v.key: t.params[v.key] for v in problem.variables if v.key in t.params})
                          for t in pending]
                 pending = []
             else:
-                asked = [study.ask() for _ in range(min(problem.batch, n_trials - finished))]
+                asked = [study.ask() for _ in range(int(min(problem.batch, n_trials - finished, run_cap - runs)))]
                 batch = [(t.number, t._trial_id, problem.suggest(t)) for t in asked]
             # common random numbers make a run a function of its decision values: a repeated point is not re-run
             first: dict = {}
@@ -252,14 +258,15 @@ def run_search(problem: Problem, out_dir: Path, executor, n_trials: int | None =
                 rec = records.get(number) or cache.get(key) or records[first[key]]
                 _tell(study, problem, number, trial_id, rec, reused=rec.point != number)
             evaluations += len(tasks)
+            runs += len(tasks)
             finished += len(batch)
             _check_keys(study)
     finally:
         progress.close()
         trials = study.get_trials(deepcopy=False)
         done = sum(t.state in (TrialState.COMPLETE, TrialState.FAIL) for t in trials)
-        manifest.update(status="complete" if done >= n_trials else "interrupted", finished_trials=done,
-                        evaluations_this_session=evaluations,
+        manifest.update(status="complete" if done >= n_trials or runs >= run_cap else "interrupted",
+                        finished_trials=done, evaluations_this_session=evaluations,
                         finished_utc=datetime.now(timezone.utc).isoformat(), session_wall_s=time.perf_counter() - t0)
         write_json(out / MANIFEST, manifest)
     return manifest
