@@ -87,18 +87,19 @@ def wellbore1() -> list[Check]:
     return checks
 
 
-def format_wellbore1_table() -> str:
-    """Markdown table: ours / thesis (B, A, TVD in cm) per station and tool."""
-    table = wellbore1_table(tuple(PUBLISHED_CM))
-    head = "| SS | " + " | ".join(f"{t} ({SIGMA_OF[t]}σ) ours / thesis" for t in PUBLISHED_CM) + " |"
+def format_tool_table(table: dict, label: str) -> str:
+    """Markdown table: ``label`` / thesis (B, A, TVD in cm) per station and tool, ``table[tool]`` (11, 3) by station."""
+    head = "| SS | " + " | ".join(f"{t} ({SIGMA_OF[t]}σ) {label} / thesis" for t in PUBLISHED_CM) + " |"
     lines = [head, "|---" * (len(PUBLISHED_CM) + 1) + "|"]
     for k in range(1, 11):
-        cells = []
-        for t, rows in PUBLISHED_CM.items():
-            o, p = table[t][k], rows[k - 1]
-            cells.append(" ".join(f"{a:.3g}/{b:.3g}" for a, b in zip(o, p)))
+        cells = [" ".join(f"{a:.3g}/{b:.3g}" for a, b in zip(table[t][k], rows[k - 1])) for t, rows in PUBLISHED_CM.items()]
         lines.append(f"| {k} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def format_wellbore1_table() -> str:
+    """Markdown table: ours (standard ISCWSA) / thesis per station and tool (:func:`format_tool_table`)."""
+    return format_tool_table(wellbore1_table(tuple(PUBLISHED_CM)), "ours")
 
 
 CHECKS = [wellbore1]

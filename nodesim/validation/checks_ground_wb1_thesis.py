@@ -28,6 +28,7 @@ from nodesim.validation.checks_ground_wb1 import (
     PUBLISHED_CM,
     SIGMA_OF,
     TABLE_OF,
+    format_tool_table,
     wellbore1_survey,
     wellbore1_table,
 )
@@ -203,13 +204,7 @@ def wellbore1_thesis() -> list[Check]:
 
 def format_wellbore1_thesis_table() -> str:
     """Markdown table: replica / thesis (B, A, TVD in cm) per station and tool."""
-    table = wellbore1_thesis_table(tuple(PUBLISHED_CM))
-    head = "| SS | " + " | ".join(f"{t} ({SIGMA_OF[t]}σ) replica / thesis" for t in PUBLISHED_CM) + " |"
-    lines = [head, "|---" * (len(PUBLISHED_CM) + 1) + "|"]
-    for k in range(1, 11):
-        cells = [" ".join(f"{a:.3g}/{b:.3g}" for a, b in zip(table[t][k], rows[k - 1])) for t, rows in PUBLISHED_CM.items()]
-        lines.append(f"| {k} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    return format_tool_table(wellbore1_thesis_table(tuple(PUBLISHED_CM)), "replica")
 
 
 CHECKS = [wellbore1_thesis]
