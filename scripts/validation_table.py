@@ -5,7 +5,10 @@
 
 Between the marker lines ``<!-- validation-counts:start -->`` / ``<!-- validation-counts:end -->`` (README and
 docs) it writes ok / total per kind; between ``<!-- validation-table:start -->`` / ``<!-- validation-table:end -->``
-(docs) every row, grouped by kind, with its note for the rows that are not reproductions (the note says why).
+(docs) every row, grouped by kind, with its note for the rows that are not reproductions (the note says why); a
+kind with distribution rows (``band_p5`` set: the lab's published runs against our runs) gets two more columns, our
+5-95 % band and the percentile of the published value.  Between ``<!-- validation-bands:start -->`` /
+``<!-- validation-bands:end -->`` (docs, optional) the distribution rows alone: median, band, percentile, inside.
 Everything outside the markers is left as it is.  Do not edit the generated blocks by hand.
 """
 
@@ -27,7 +30,7 @@ MEANING = {
 }
 if tuple(MEANING) != KINDS:
     raise RuntimeError(f"MEANING must describe every kind of nodesim.validation.KINDS {KINDS}, in order")
-COUNTS, TABLE = "validation-counts", "validation-table"
+COUNTS, TABLE, BANDS = "validation-counts", "validation-table", "validation-bands"
 
 
 def _cell(value) -> str:
@@ -52,18 +55,50 @@ def counts_block(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _has_band(row: dict) -> bool:
+    return row.get("band_p5") is not None
+
+
+def band_cell(row: dict) -> str:
+    """Our 5-95 % band as "[p5, p95]" ("-" for a row without one)."""
+    return f"[{_cell(row['band_p5'])}, {_cell(row['band_p95'])}]" if _has_band(row) else "-"
+
+
+def percentile_cell(row: dict) -> str:
+    """Where the published value falls among our runs ("-" for a row without a band)."""
+    return f"{row['published_percentile']:.1f} %" if _has_band(row) else "-"
+
+
 def table_block(rows: list[dict]) -> str:
-    """One section per kind (heading with ok / total), one table row per check, in ``nodesim validate`` order."""
+    """One section per kind (heading with ok / total), one table row per check, in ``nodesim validate`` order; a
+    kind with distribution rows shows our 5-95 % band and the published value's percentile too."""
     out = []
     for kind, (ok, total) in counts(rows).items():
         with_note = kind != "reproduction"
-        head = ["ok", "check", "ours", "published", "tolerance", "source"] + (["note"] if with_note else [])
+        with_band = any(_has_band(r) for r in rows if r["kind"] == kind)
+        head = (["ok", "check", "ours", "published"] + (["our 5-95 %", "published at"] if with_band else []) +
+                ["tolerance", "source"] + (["note"] if with_note else []))
         out += [f"### {kind}: {ok} of {total} ok", "", "| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
         for r in (r for r in rows if r["kind"] == kind):
-            cells = ["yes" if r["ok"] else "no", r["name"], r["ours"], r["published"], r["tolerance"], r["source"]]
-            out.append("| " + " | ".join(_cell(c) for c in cells + ([r["note"]] if with_note else [])) + " |")
+            cells = [_cell("yes" if r["ok"] else "no"), _cell(r["name"]), _cell(r["ours"]), _cell(r["published"])]
+            cells += [band_cell(r), percentile_cell(r)] if with_band else []
+            cells += [_cell(r["tolerance"]), _cell(r["source"])] + ([_cell(r["note"])] if with_note else [])
+            out.append("| " + " | ".join(cells) + " |")
         out.append("")
     return "\n".join(out).rstrip("\n")
+
+
+def bands_block(rows: list[dict]) -> str:
+    """The distribution rows alone: published, our median, 5 %, 95 %, the published value's percentile, inside."""
+    lines = ["| check | published | our median | our 5 % | our 95 % | published at | inside |",
+             "|---|---|---|---|---|---|---|"]
+    for r in (r for r in rows if _has_band(r)):
+        lines.append("| " + " | ".join([_cell(r["name"]), _cell(r["published"]), _cell(r["ours"]), _cell(r["band_p5"]),
+                                        _cell(r["band_p95"]), percentile_cell(r), "yes" if r["ok"] else "no"]) + " |")
+    inside, n = sum(r["ok"] for r in rows if _has_band(r)), sum(map(_has_band, rows))
+    if n:
+        lines += ["", f"{inside} of {n} published values inside our 5-95 % band ({100 * inside / n:.0f} %)."]
+    return "\n".join(lines)
 
 
 def replace_block(text: str, marker: str, block: str) -> str:
@@ -84,8 +119,10 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         raise SystemExit(f"{args.json}: rows of unknown kind {sorted(map(str, unknown))}")
     docs, readme = args.repo / "docs" / "validation.md", args.repo / "README.md"
-    text = replace_block(docs.read_text(), COUNTS, counts_block(rows))
-    docs.write_text(replace_block(text, TABLE, table_block(rows)))
+    text = replace_block(replace_block(docs.read_text(), COUNTS, counts_block(rows)), TABLE, table_block(rows))
+    if f"<!-- {BANDS}:start -->" in text:
+        text = replace_block(text, BANDS, bands_block(rows))
+    docs.write_text(text)
     readme.write_text(replace_block(readme.read_text(), COUNTS, counts_block(rows)))
     print(f"{docs} and {readme}: {len(rows)} rows, " +
           ", ".join(f"{k} {ok}/{total}" for k, (ok, total) in counts(rows).items()))

@@ -76,3 +76,31 @@ def test_committed_counts_match_the_committed_table():
     assert counts == _counts_block(readme)
     assert {k: counts[k] for k in KINDS} == _section_counts(docs)
     assert counts["all"] == tuple(map(sum, zip(*(counts[k] for k in KINDS))))
+
+
+BAND_ROW = {"name": "lab x: RMS azimuth error [deg]", "source": "thesis table 4.22", "ours": 0.46, "published": 0.25,
+            "tolerance": "published inside our 5-95 % band (256 runs)", "ok": True, "note": "", "kind": "reproduction",
+            "band_p5": 0.15, "band_p95": 1.19, "published_percentile": 27.0, "realizations": 256}
+
+
+def test_distribution_rows_show_their_band_and_percentile(tmp_path):
+    low = {**BAND_ROW, "name": "lab y", "published": 0.029, "published_percentile": 0.0, "ok": False}
+    rows = [BAND_ROW, low, *ROWS]
+    table = validation_table.table_block(rows)
+    assert "| ok | check | ours | published | our 5-95 % | published at | tolerance | source |" in table
+    assert "| yes | lab x: RMS azimuth error [deg] | 0.46 | 0.25 | [0.15, 1.19] | 27.0 % |" in table
+    assert "| yes | a \\|x\\| | 1 | 1 | - | - | rel 0.1 | thesis |" in table  # a row without a band in that kind
+    assert "| yes | c | 1.17 | - | ordering | thesis | ours only |" in table  # a kind without bands: no new columns
+    bands = validation_table.bands_block(rows)
+    assert "| lab x: RMS azimuth error [deg] | 0.25 | 0.46 | 0.15 | 1.19 | 27.0 % | yes |" in bands
+    assert "| lab y | 0.029 | 0.46 | 0.15 | 1.19 | 0.0 % | no |" in bands
+    assert bands.endswith("1 of 2 published values inside our 5-95 % band (50 %).") and "| b |" not in bands
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "validation.md").write_text(
+        BLOCKS + "<!-- validation-table:start -->\n<!-- validation-table:end -->\n"
+        "<!-- validation-bands:start -->\nold\n<!-- validation-bands:end -->\n")
+    (tmp_path / "README.md").write_text(BLOCKS)
+    (tmp_path / "checks.json").write_text(json.dumps(rows))
+    assert validation_table.main([str(tmp_path / "checks.json"), "--repo", str(tmp_path)]) == 0
+    docs = (tmp_path / "docs" / "validation.md").read_text()
+    assert bands in docs and "old" not in docs

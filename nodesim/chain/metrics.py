@@ -7,6 +7,9 @@ part of each drilling survey stop; only where the node's filter runs):
   (with ``metrics.output_moving_average_points`` > 1 a further moving average is applied to the reported
   I and A first: thesis figs 4.16/4.20 plot and read them through a 100-point MAF);
 - ``rms_inclination_error_deg``: the same for inclination;
+  (both against the run's reference attitude: the exact geometry, or with ``metrics.reference_accuracy_pct`` > 0 on
+  the lab profile the truth as the thesis's rig has it, measured once per run and node after the initial
+  calibration, :func:`reference_attitude`);
 - ``rms_yaw_error_deg``: RMS of wrap(psi_hat - psi_true) (unsmoothed filter output);
 - ``max_timeout_yaw_error_deg``: the yaw-error envelope in timeouts: max |yaw error| over metric ticks
   without a reference update (NaN when every tick had one);
@@ -95,13 +98,32 @@ def output_average(node: NodeRun, points: int) -> tuple[np.ndarray, np.ndarray]:
     return inc, azi
 
 
+def reference_attitude(true_inclination_rad: np.ndarray, true_azimuth_rad: np.ndarray,
+                       error_rad: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(inclination, azimuth) the errors are measured against: the truth ``(K,)`` itself (``error_rad`` None), or,
+    for ``error_rad`` (R, 2) = (along, across the tilt) [rad], the tube axis u = (sin I cos A, sin I sin A, cos I)
+    moved by along * dU/dI + across * dU/dA / sin I and normalised, (R, K) each: the reference inclination is off
+    by ``along``, the reference azimuth by ``across / sin I`` (to first order)."""
+    if error_rad is None:
+        return true_inclination_rad, true_azimuth_rad
+    inc, azi = true_inclination_rad[None, :], true_azimuth_rad[None, :]
+    along, across = error_rad[:, 0:1], error_rad[:, 1:2]
+    si, ci, sa, ca = np.sin(inc), np.cos(inc), np.sin(azi), np.cos(azi)
+    x = si * ca + along * ci * ca - across * sa
+    y = si * sa + along * ci * sa + across * ca
+    z = ci - along * si
+    return np.arctan2(np.hypot(x, y), z), np.arctan2(y, x)
+
+
 def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[str, np.ndarray]:
     """Metric arrays of shape (R,) for one node, in edge units (deg, s)."""
     sel = metric_ticks(node, run.motion.metric_windows)
     R = node.yaw_est_rad.shape[0]
     inc, azi = output_average(node, window.output_moving_average_points)
-    azi_err = wrap_pi(azi[:, sel] - node.true_azimuth_rad[sel])
-    inc_err = inc[:, sel] - node.true_inclination_rad[sel]
+    ref_inc, ref_azi = reference_attitude(node.true_inclination_rad[sel], node.true_azimuth_rad[sel],
+                                          node.reference_error_rad)
+    azi_err = wrap_pi(azi[:, sel] - ref_azi)
+    inc_err = inc[:, sel] - ref_inc
     yaw_err = wrap_pi(node.yaw_est_rad[:, sel] - node.true_yaw_rad[sel])
     timeout = ~node.update_mask[:, sel]
     envelope = np.where(timeout, np.abs(yaw_err), -np.inf).max(axis=1, initial=-np.inf)

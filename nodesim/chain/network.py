@@ -106,6 +106,9 @@ class NodeRun:
     present_from_s: float = 0.0
     adc_clipped_samples: np.ndarray | None = None  # (R,) gyro + accelerometer axis readings clipped at full scale
     estimate_frames: np.ndarray | None = None  # (R, K, 27) uint8 the estimate frames it sent (fixed firmware), 0 = none
+    # (R, 2) rad: static error of the lab's measured truth (along, across the tilt; metrics.reference_accuracy_pct,
+    # nodesim.chain.sensing.reference_error_rad); None: the metrics compare with the exact geometry
+    reference_error_rad: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -424,6 +427,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         present_from_s=node.timeline.present_from_s,
         adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
         estimate_frames=node.frames,
+        reference_error_rad=node.sig.reference_error_rad,
     )
 
 

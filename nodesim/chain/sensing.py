@@ -42,6 +42,9 @@ class NodeSignals:
     samples: np.ndarray  # (K,) int64
     gyro_clipped_samples: np.ndarray  # (R,) int64 gyro axis readings clipped at full scale
     accel_clipped_samples: np.ndarray  # (R,) int64 accelerometer axis readings clipped
+    # (R, 2) rad: the static error of the reference tilt the metrics compare with (along, across the tilt;
+    # metrics.reference_accuracy_pct, :func:`reference_error_rad`); None: the exact geometry
+    reference_error_rad: np.ndarray | None = None
 
 
 def node_signals(
@@ -71,7 +74,25 @@ def node_signals(
         samples=c.samples,
         gyro_clipped_samples=c.gyro_clipped_samples,
         accel_clipped_samples=c.accel_clipped_samples,
+        reference_error_rad=reference_error_rad(scenario, streams, node_index),
     )
+
+
+def reference_error_rad(scenario: Scenario, streams: RunStreams, node_index: int) -> np.ndarray | None:
+    """(R, 2): node ``node_index``'s static error of the lab's measured truth, (along, across the tilt) in rad, or None.
+
+    Thesis sec 4.2.3: before each run "the true inclination and azimuth is determined after the initial
+    calibration", i.e. measured, once; the thesis gives the MPU6500's accuracy after calibration as "+/-1.126 % of
+    the measured value" (table 4.20).  Each component is normal with sigma = ``metrics.reference_accuracy_pct`` % of
+    the lab tube's inclination (2 deg: 0.0225 deg), per node and realization (stream ``reference``: 2 normals).
+    The reference inclination is off by the along component, the reference azimuth by the across one / sin I
+    (:func:`nodesim.chain.metrics.reference_attitude`).  The alignment offset cannot remove it (it is not in the
+    sensor frame), unlike the residual sensor tilt."""
+    pct = scenario.metrics.reference_accuracy_pct
+    if scenario.motion.kind != "lab" or pct == 0.0:
+        return None
+    sigma = pct / 100.0 * math.radians(scenario.motion.inclination_deg)
+    return streams.sensor_normals(scenario.simulation.realizations, node_index, "reference", 2) * sigma
 
 
 _LAST_TRUTH: list = [None]  # (weakref to the motion, key, SampleTruth) of the latest run

@@ -17,7 +17,8 @@ def register(sub) -> None:
         "validate",
         help="compare our figures with the published ones",
         description="Run every check against a published figure: ok, kind (reproduction | self_consistency | "
-        "hypothesis), name, ours, published, tolerance, source; then ok / total per kind.",
+        "hypothesis), name, ours, published, band (distribution rows: our 5-95 % band and the percentile of the "
+        "published value), tolerance, source; then ok / total per kind.",
     )
     p.add_argument("--json", action="store_true", help="print a JSON list of checks on stdout (each with its kind)")
     p.add_argument("--strict", action="store_true",
@@ -42,11 +43,19 @@ def _number(value: float) -> str:
     return f"{value:.4g}" if value is not None and math.isfinite(value) else "-"
 
 
+def _band(c) -> str:
+    """A distribution row's 5-95 % band of our runs and the percentile of the published value among them; "-"."""
+    if getattr(c, "band_p5", None) is None:
+        return "-"
+    return f"[{_number(c.band_p5)}, {_number(c.band_p95)}] at {c.published_percentile:.0f}%"
+
+
 def format_table(checks) -> str:
-    """One line per check: ok, kind, name, ours, published, tolerance, source (columns padded)."""
-    header = ("ok", "kind", "name", "ours", "published", "tolerance", "source")
-    rows = [("yes" if c.ok else "NO", c.kind, c.name, _number(c.ours), _number(c.published), c.tolerance, c.source)
-            for c in checks]
+    """One line per check: ok, kind, name, ours, published, our band (distribution rows: 5-95 % of our runs and the
+    published value's percentile; "-" otherwise), tolerance, source (columns padded)."""
+    header = ("ok", "kind", "name", "ours", "published", "band 5-95%", "tolerance", "source")
+    rows = [("yes" if c.ok else "NO", c.kind, c.name, _number(c.ours), _number(c.published), _band(c), c.tolerance,
+             c.source) for c in checks]
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     lines = ["  ".join(str(v).ljust(w) for v, w in zip(row, widths)).rstrip() for row in [header, *rows]]
     lines.insert(1, "  ".join("-" * w for w in widths))

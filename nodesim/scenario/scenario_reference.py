@@ -23,7 +23,7 @@ UNIT_SUFFIXES = (
     ("_ppm", "ppm"), ("_hz", "Hz"), ("_khz", "kHz"), ("_mhz", "MHz"), ("_ghz", "GHz"), ("_deg", "deg"),
     ("_rad", "rad"), ("_ms", "ms"), ("_us", "us"), ("_s", "s"), ("_mm", "mm"), ("_cm", "cm"), ("_km", "km"),
     ("_m", "m"), ("_nt", "nT"), ("_bits", "bit"), ("_bytes", "byte"), ("_w", "W"), ("_mw", "mW"), ("_c", "degC"),
-    ("_probability", "probability"), ("_fraction", "fraction"),
+    ("_probability", "probability"), ("_fraction", "fraction"), ("_pct", "%"),
 )
 
 

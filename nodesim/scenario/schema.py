@@ -293,6 +293,16 @@ class MetricsSection(_Section):
     output_moving_average_points: int = Field(
         1, ge=1, le=10_000, description="extra moving average on the reported I and A before the RMS (1 = none)"
     )
+    reference_accuracy_pct: float = Field(
+        0.0, ge=0.0, le=100.0, description="lab profile: the true inclination and azimuth the errors are measured "
+        "against are themselves a measurement, made once per run after the initial calibration (thesis sec 4.2.3: "
+        "'the true inclination and azimuth is determined after the initial calibration'), with this accuracy: per "
+        "node and realization a static error of the reference tilt, along and across the tilt, each normal with sigma "
+        "= this percentage of the inclination (the reference inclination is off by the first, the reference azimuth "
+        "by the second / sin I). The thesis rig (scenarios/lab): 1.126, the MPU6500's accuracy after calibration, "
+        "'+/-1.126 % of the measured value' (thesis table 4.20). 0: the exact geometry (drilling: always; the errors "
+        "are against the well path itself)"
+    )
 
     @model_validator(mode="after")
     def _window_ordered(self) -> "MetricsSection":
@@ -357,6 +367,10 @@ class Scenario(_Section):
                 f"budget; got {self.radio.model!r}) and filter.implementation = 'fixed' (the frames with bytes; "
                 f"got {self.filter.implementation!r})")
         if self.motion.kind == "drilling":
+            if self.metrics.reference_accuracy_pct != 0.0:
+                raise ValueError(
+                    f"metrics.reference_accuracy_pct = {self.metrics.reference_accuracy_pct} models the lab's measured "
+                    "truth (thesis sec 4.2.3); a drilling run's errors are against the well path itself (allowed: 0)")
             if self.motion.initial_tubes > self.chain.nodes:
                 raise ValueError(
                     f"motion.initial_tubes = {self.motion.initial_tubes}: more tubes in the hole than the chain has "

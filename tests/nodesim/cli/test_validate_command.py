@@ -79,3 +79,18 @@ def test_a_row_without_a_published_figure_prints_a_dash(checks, capsys):
 def test_an_unknown_kind_is_refused():
     with pytest.raises(ValueError, match="kind 'replication'"):
         within_rel("toy", "thesis", 1.0, 1.0, 0.1, kind="replication")
+
+
+def test_a_distribution_row_prints_its_band_and_the_published_percentile(checks, capsys):
+    from nodesim.validation import within_band
+
+    checks.extend([within_band("toy published run", "thesis toy table", list(range(101)), 30.0), *PASSING])
+    assert main(["validate"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "band 5-95%" in lines[0]
+    assert "[5, 95] at 30%" in next(line for line in lines if "toy published run" in line)
+    read_back = next(line for line in lines if "toy read-back" in line)
+    assert read_back.split()[4:7] == ["2", "2", "-"]  # ours, published, no band
+    assert main(["validate", "--json"]) == 0
+    row = json.loads(capsys.readouterr().out)[0]
+    assert (row["ours"], row["band_p5"], row["band_p95"], row["realizations"]) == (50.0, 5.0, 95.0, 101)

