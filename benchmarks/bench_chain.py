@@ -20,8 +20,8 @@
   MC_SAMPLE.  Goal >= 20.  Each side is timed after a warm-up call of its own kind, best of ``MC_REPEAT``; the
   batched run's first call (fresh memory) is reported too (``batched_mc_speedup_first_call``).  The batch runs
   its realizations on every CPU this process may use (``batched_mc_threads``, :mod:`nodesim.threads`), as a
-  user's ``--realizations`` run does; a single run has one realization and one thread.
-  ``batched_mc_speedup_one_thread``: the same batch on one thread (``threads.limited(1)``, as
+  user's ``--realizations`` run does; a single run puts its nodes' sensors and surveys on every CPU too.
+  ``batched_mc_speedup_one_thread``: the same batch and the same single runs on one thread (``threads.limited(1)``, as
   ``NODESIM_THREADS=1`` would; what batching alone buys).
   ``batched_mc_speedup_event_engine``: the same on the SimPy engine.
 * ``chain1000_24h_wall_s_extrapolated``: a 1000-node chain of the perf scenario on the compiled engine for
@@ -189,9 +189,9 @@ def _end_to_end(perf) -> tuple[float, float]:
     return min(runs), min(skels)
 
 
-def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[float, float, float, float, float]:
+def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[float, ...]:
     """(one-by-one time for MC_R extrapolated from MC_SAMPLE runs, batched time, single-run time, the batched
-    run's first call, batched time on one thread (NaN unless ``one_thread``)).  Each is timed after a warm-up call of its own kind (what
+    run's first call, batched time on one thread and the one-by-one time on one thread (NaN unless ``one_thread``)).  Each is timed after a warm-up call of its own kind (what
     timeit does), best of ``repeat`` (the same for every side): the first batched call in a process also pays
     the first touch of its ~0.5 GB of fresh arrays, kept apart."""
     from nodesim.chain.network import simulate_chain
@@ -202,22 +202,24 @@ def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True) -> tuple[
     batched = base.with_overrides(**{"simulation.realizations": MC_R})
     t_first = best_time_s(lambda: simulate_chain(batched), repeat=1)
     t_batch = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
-    t_batch_1 = float("nan")
-    if one_thread:
+    t_batch_1 = t_one_1 = float("nan")
+    if one_thread:  # both sides on one thread (a single-realization run puts its nodes on every CPU otherwise)
         with threads.limited(1):
             t_batch_1 = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
-    return t_one * MC_R, t_batch, t_one, t_first, t_batch_1
+            t_one_1 = best_time_s(lambda: [simulate_chain(s) for s in singles], repeat=repeat) / MC_SAMPLE
+    return t_one * MC_R, t_batch, t_one, t_first, t_batch_1, t_one_1 * MC_R
 
 
 def batched_mc_speedup() -> dict:
     base = _sliced(_scenario("perf", "chain100_1h.toml"), MC_DURATION_S).with_overrides(
         **{"chain.nodes": MC_NODES, "filter.implementation": "float"})
-    one, batch, single, first, batch_1 = _batched_vs_one_by_one(base, repeat=MC_REPEAT)
+    one, batch, single, first, batch_1, one_1 = _batched_vs_one_by_one(base, repeat=MC_REPEAT)
     with threads.limited(1):  # the SimPy engine's batch is numpy over realizations, ~10 s a side
-        one_ev, batch_ev, single_ev, _, _ = _batched_vs_one_by_one(_event_engine(base), 1, False)
+        one_ev, batch_ev, single_ev, _, _, _ = _batched_vs_one_by_one(_event_engine(base), 1, False)
     return {
         "batched_mc_speedup": one / batch,
-        "batched_mc_speedup_one_thread": one / batch_1,
+        "batched_mc_speedup_one_thread": one_1 / batch_1,
+        "batched_mc_one_by_one_1000_one_thread_s_extrapolated": one_1,
         "batched_mc_threads": len(threads.chunks(MC_R)),
         "batched_mc_speedup_first_call": one / first,
         "batched_mc_1000_realizations_s": batch,
