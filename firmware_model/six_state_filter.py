@@ -66,7 +66,8 @@ Euler-rate terms would be evaluated at |cos(theta)| < sin(margin) (|theta| withi
     "decouple": Phi_11 = I, Phi_12 = dt I, G_C = A I for the tick (the near-vertical form of digest 2.4: the
                 (psi, b_z) block propagates exactly as the 2-state filter's, roll and pitch likewise per axis).
 Neither is exact there; both keep every number finite and the count says how often a run relied on it.  The
-"rotation" strapdown keeps the attitude itself exact through the singularity; the "euler" one uses the held E.
+"rotation" strapdown keeps the attitude itself exact through the singularity; the "euler" one uses the same E as
+its Phi (held, or I3 with "decouple").
 Outside the margin the filter is the thesis's.
 """
 
@@ -312,7 +313,7 @@ def discrete_model(config: SixStateFilterConfig, attitude, omega_hat):
     phi[:, 3:, 3:] = np.diag(1.0 - dt / np.array(config.bias_tau_s))
     if config.discretisation == "euler":
         f, g, near = continuous_model(config, attitude, omega_hat, hold)
-        e = f[:, :3, 3:]
+        e = np.where(near[:, None, None], np.eye(3), f[:, :3, 3:]) if decouple else f[:, :3, 3:]
         posterior = attitude + dt * np.einsum("rij,rj->ri", e, omega_hat)
         phi[:, :3, :] = np.eye(3, 6) + f[:, :3, :] * dt
         gc = g[:, :3, :3]

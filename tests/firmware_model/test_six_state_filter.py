@@ -511,10 +511,12 @@ def test_pitching_through_90_deg_counts_the_margin_and_stays_finite(disc, mode):
         assert tilt == pytest.approx(80.0 + 40 * 2.0 * DT * 1.0, abs=0.5)
 
 
-def test_decouple_inside_the_margin_is_the_two_state_filter_for_yaw():
+@pytest.mark.parametrize("disc", ["rotation", "euler"])
+def test_decouple_inside_the_margin_is_the_two_state_filter_for_yaw(disc):
     """Inside the margin the "decouple" treatment propagates the (psi, b_z) block as the 2-state filter does
-    (Phi_11 = I, Phi_12 = dt I, G_C = A I): from the same block the next ticks give the 2-state filter's P."""
-    cfg = six_config(singularity="decouple")
+    (Phi_11 = I, Phi_12 = dt I, G_C = A I; the Euler strapdown with E = I): the (psi, b_z) covariance is the
+    2-state filter's and the yaw advances by dt w_z."""
+    cfg = six_config(singularity="decouple", discretisation=disc)
     kf = SixStateFilter(cfg, 1, [0.2, 88.0 * DEG, 0.4])
     two = FloatYawFilter(yaw_config(), 1)
     for k in range(50):
@@ -525,6 +527,10 @@ def test_decouple_inside_the_margin_is_the_two_state_filter_for_yaw():
             two.update(0.0, ENC_VAR)
         np.testing.assert_allclose(kf.covariance[0][np.ix_([2, 5], [2, 5])], two.covariance[0], rtol=1e-12)
     assert kf.singular_ticks[0] == 50
+    if disc == "euler":
+        yaw = kf.yaw_rad[0]
+        kf.predict([0.0, 0.0, 0.01])
+        assert kf.yaw_rad[0] == pytest.approx(yaw + 0.01 * DT, rel=1e-14)
 
 
 def test_hold_bounds_the_euler_terms_by_the_margin():
