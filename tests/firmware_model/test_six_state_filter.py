@@ -25,6 +25,7 @@ from firmware_model.six_state_filter import (
     euler_angles,
     euler_rate_matrix,
     inverse_euler_rate_matrix,
+    pitch_trig,
     so3_exp,
     wrap_pi_closed,
 )
@@ -536,8 +537,6 @@ def test_decouple_inside_the_margin_is_the_two_state_filter_for_yaw(disc):
 def test_hold_bounds_the_euler_terms_by_the_margin():
     """pitch_trig with "hold": |1/cos| <= 1/sin(margin) and |tan| <= cot(margin) on both sides of +/-90 deg, the
     true values outside; the mask marks exactly |cos theta| < sin(margin)."""
-    from firmware_model.six_state_filter import pitch_trig
-
     m = 5.0 * DEG
     theta = np.radians([0.0, 60.0, 84.9, 85.1, 89.999, 90.0, 90.001, 95.1, -85.1, -90.0, -94.9, 180.0])
     s, c, near = pitch_trig(theta, m, hold=True)
@@ -706,7 +705,8 @@ def test_rotation_q_d_is_the_rate_noise_integrated_over_the_turning_tick(att, w)
     att, w = np.array(att), np.array(w)
     cfg = six_config(arw_rad_per_sqrt_s=(1e-4, 3e-4, 2e-4), tuning_a=1.3)
     _, q_d, post, _ = discrete_model(cfg, att[None], w[None])
-    e_post = euler_rate_matrix(post[0, 0], *trig(post[0, 1]))
+    s_post, c_post, _ = pitch_trig(post[:, 1], cfg.singularity_margin_rad, hold=True)  # held inside the margin
+    e_post = euler_rate_matrix(post[0, 0], s_post[0], c_post[0])
     u = np.linspace(0.0, DT, 201)
     rots = so3_exp(-np.outer(u, w))
     integrand = rots @ np.diag(cfg.q_continuous[:3]) @ np.swapaxes(rots, -1, -2)
