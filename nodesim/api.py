@@ -73,11 +73,13 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
                       progress: Callable[[float], None] | None = None) -> "Run":
     """:func:`simulate` for a validated scenario whose source hash the caller knows (``nodesim run``, sweeps)."""
     from nodesim.chain.compiled.engine import choose_engine
+    from nodesim.chain.estimator import require_engine_filter
     from nodesim.chain.memory_budget import available_memory_bytes, check_run_memory
     from nodesim.chain.metrics import per_realization_metrics, summarize
     from nodesim.chain.network import simulate_chain
     from nodesim.chain.run_tables import run_tables
 
+    require_engine_filter(scenario)  # filter.states = 6: refused before any work (issue 24)
     check_run_memory(scenario, choose_engine(scenario), available_memory_bytes())  # refuse before any work
     started = datetime.now(timezone.utc)
     t0 = time.perf_counter()

@@ -19,23 +19,57 @@ import numpy as np
 from firmware_model import fixed_kernel as fk
 from firmware_model import node_firmware as nf
 from firmware_model.config import FirmwareConfig
+from firmware_model.errors import FirmwareError
 from firmware_model.fixed_filter import FixedFormats
 from firmware_model.filter_factory import make_yaw_filter
+from firmware_model.six_state_filter import SixStateFilterConfig
 from firmware_model.yaw_filter import (
     YawFilter,
     YawFilterConfig,
     advance_reference,
     chain_reference_variance,
 )
+from nodesim.errors import NodesimError
 from nodesim.motion.chain_motion import lab_profile
 from nodesim.scenario.schema import Scenario
 from nodesim.sensors.chain_imu import ChainImu
 from nodesim.units import DEG
 
 
+def require_engine_filter(scenario: Scenario) -> None:
+    """Refuse a scenario whose node filter the chain engines do not run: ``filter.states = 6`` (issue 24: the
+    6-state filter exists as :class:`firmware_model.six_state_filter.SixStateFilter`, the engines do not drive it
+    yet).  Its 6-state tuning is checked first, so a bad one is reported as such."""
+    if scenario.filter.states == 2:
+        return
+    six_state_config(scenario)
+    raise NodesimError(
+        f"filter.states = {scenario.filter.states}: the chain engines do not run the 6-state filter yet (it exists "
+        "as firmware_model.six_state_filter.SixStateFilter, float only; issue 24); allowed for a run: filter.states = 2")
+
+
+def six_state_config(scenario: Scenario) -> SixStateFilterConfig:
+    """The 6-state filter's tuning (thesis eqs 3.24-3.26, 4.14-4.15): the 2-state tuning on all three gyro axes
+    (the chain's IMU model gives one Allan pair) and ``filter.singularity_margin_deg``, ``singularity``,
+    ``discretisation``."""
+    f = scenario.filter
+    try:
+        return SixStateFilterConfig.from_yaw_config(
+            _yaw_filter_config(scenario), singularity_margin_rad=f.singularity_margin_deg * DEG,
+            singularity=f.singularity, discretisation=f.discretisation)
+    except FirmwareError as err:
+        raise NodesimError(f"filter (states = 6): {err}") from None
+
+
 def filter_config(scenario: Scenario) -> YawFilterConfig:
     """Filter tuning from the scenario: the thesis Allan values of the z gyro (table V.1), A, B and how B enters the
-    bias process noise (``filter.b_tuning``, eqs 4.14-4.15)."""
+    bias process noise (``filter.b_tuning``, eqs 4.14-4.15).  Refuses ``filter.states = 6``
+    (:func:`require_engine_filter`): everything that builds a node filter or firmware build comes through here."""
+    require_engine_filter(scenario)
+    return _yaw_filter_config(scenario)
+
+
+def _yaw_filter_config(scenario: Scenario) -> YawFilterConfig:
     s, f = scenario.sensor, scenario.filter
     return YawFilterConfig(
         dt_s=1.0 / scenario.chain.firmware_rate_hz,

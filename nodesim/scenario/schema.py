@@ -15,7 +15,7 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from nodesim.errors import ScenarioError
 from nodesim.scenario.section_base import _Section
@@ -211,8 +211,28 @@ class FilterSection(_Section):
     The process noise is Q_d = G Q G^T dt with Q = diag(sigma_v^2, 2 sigma_b^2 / tau) (eq 3.26) and the noise
     gain G = diag(G_C, G_D) (eq 4.15): G_C = A, and G_D by ``b_tuning`` (the thesis's eq 4.14 is lost in the
     text, so both readings are kept): ``noise_gain`` G_D = B, Q_bb = B^2 2 sigma_b^2 / tau; ``process_noise``
-    G_D = sqrt(B), Q_bb = B 2 sigma_b^2 / tau (firmware_model.yaw_filter.YawFilterConfig.q_d)."""
+    G_D = sqrt(B), Q_bb = B 2 sigma_b^2 / tau (firmware_model.yaw_filter.YawFilterConfig.q_d).  The bounds of
+    ``tuning_a``, ``tuning_b`` and ``bias_tau_s`` (> 0) are what keeps Q >= 0 (and sqrt(B) real) for both filters.
 
+    ``states`` picks the filter: 2 (yaw, z bias: the near-vertical form, what the chain engines run) or 6 (the
+    thesis's roll, pitch, yaw and three biases, eqs 3.22-3.26: firmware_model.six_state_filter, issue 24).  The
+    6-state filter exists in float only and the chain engines do not run it yet: a run with ``states = 6`` is
+    refused.  ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
+
+    states: Literal[2, 6] = Field(
+        2, description="node filter states: 2 = (yaw, z-gyro bias), the near-vertical form the chain engines run; "
+        "6 = the thesis's (roll, pitch, yaw, 3 gyro biases), float only, not yet run by the chain engines (a run "
+        "with 6 is refused)")
+    singularity_margin_deg: float = Field(
+        5.0, gt=0.0, lt=90.0, description="states = 6: how close to pitch +/-90 deg (horizontal) the Euler-rate "
+        "terms (1/cos pitch) are treated as singular; such ticks are counted")
+    singularity: Literal["hold", "decouple"] = Field(
+        "hold", description="states = 6, inside the singularity margin: 'hold' evaluates the Euler-rate terms at "
+        "the margin, 'decouple' propagates the 2-state form (firmware_model.six_state_filter)")
+    discretisation: Literal["rotation", "euler"] = Field(
+        "rotation", description="states = 6: 'rotation' = the exact tick at a constant rate (direction cosine "
+        "strapdown, Phi its Jacobian); 'euler' = Phi = I + F dt (thesis digest 2.5), unstable under string "
+        "rotation (roll/pitch errors grow sqrt(1 + (w dt)^2) per tick)")
     implementation: Literal["float", "fixed"] = "float"
     fixed_word_bits: int = Field(
         32, ge=12, le=32, description="fixed: MCU word length; fewer bits keep each variable's range, lose "
@@ -227,6 +247,26 @@ class FilterSection(_Section):
         "over the thesis's 8 bias convergence times (nodesim validate, issue 21)")
     bias_tau_s: float = Field(500.0, gt=0.0, le=1e7)
     moving_average_points: int = Field(32, ge=1, le=10_000)
+
+    @field_validator("states", mode="before")
+    @classmethod
+    def _states_integer(cls, value):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"Input should be 2 or 6 (an integer; got {value!r})")
+        return value
+
+    @model_validator(mode="after")
+    def _six_state_settings(self) -> "FilterSection":
+        if self.states == 6 and self.implementation == "fixed":
+            raise ValueError("filter.states = 6 with filter.implementation = 'fixed': the 6-state filter has no "
+                             "fixed-point implementation yet (allowed: implementation = 'float' with states = 6)")
+        if self.states == 2:
+            for key in ("singularity_margin_deg", "singularity", "discretisation"):
+                value, default = getattr(self, key), type(self).model_fields[key].default
+                if value != default:
+                    raise ValueError(f"filter.{key} = {value!r} is only used with filter.states = 6 "
+                                     f"(filter.states is 2)")
+        return self
 
 
 class FirmwareSection(_Section):

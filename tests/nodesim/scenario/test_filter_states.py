@@ -1,0 +1,113 @@
+"""filter.states = 2 | 6 (issue 24): validated, its 6-state settings checked and carried to the 6-state filter's
+configuration, and a run with 6 refused by every entry that would build a node filter (the chain engines do not
+run the 6-state filter yet, so nothing pretends)."""
+
+import math
+
+import pytest
+
+from firmware_model.six_state_filter import SixStateFilterConfig
+from nodesim.api import simulate
+from nodesim.chain.estimator import filter_config, require_engine_filter, six_state_config
+from nodesim.chain.network import simulate_chain
+from nodesim.cli.main import main
+from nodesim.errors import NodesimError, ScenarioError
+from nodesim.replay.replayer import FirmwareSetup
+from nodesim.scenario.schema import Scenario, load_scenario
+
+SIX = {"filter.states": 6}
+REFUSED = "the chain engines do not run the 6-state filter yet"
+
+
+@pytest.mark.parametrize("text, fragments", [
+    ("[filter]\nstates = 3\n", ("filter.states", "2 or 6", "got 3")),
+    ("[filter]\nstates = 6.0\n", ("filter.states", "2 or 6")),
+    ('[filter]\nstates = "6"\n', ("filter.states", "2 or 6")),
+    ("[filter]\nstates = 6\ntuning_b = -5.0\n", ("filter.tuning_b", "greater than 0")),
+    ("[filter]\nstates = 6\ntuning_a = 0.0\n", ("filter.tuning_a", "greater than 0")),
+    ("[filter]\nstates = 6\nbias_tau_s = -500.0\n", ("filter.bias_tau_s", "greater than 0")),
+    ("[filter]\nstates = 6\nsingularity_margin_deg = 90.0\n", ("filter.singularity_margin_deg", "less than 90")),
+    ("[filter]\nstates = 6\nsingularity_margin_deg = 0.0\n", ("filter.singularity_margin_deg", "greater than 0")),
+    ('[filter]\nstates = 6\nsingularity = "switch"\n', ("filter.singularity", "'hold' or 'decouple'")),
+    ('[filter]\nstates = 6\ndiscretisation = "rk4"\n', ("filter.discretisation", "'rotation' or 'euler'")),
+    ('[filter]\nstates = 6\nimplementation = "fixed"\n', ("filter.states = 6", "filter.implementation = 'fixed'",
+                                                          "no fixed-point implementation yet")),
+    ('[filter]\nsingularity = "decouple"\n', ("filter.singularity = 'decouple'", "only used with filter.states = 6")),
+    ("[filter]\nsingularity_margin_deg = 3.0\n", ("filter.singularity_margin_deg", "only used with filter.states = 6")),
+])
+def test_bad_filter_states_configurations_are_rejected_naming_the_key(write_toml, text, fragments):
+    """states 3 (or a non-integer), a tuning that would make Q negative (B < 0 makes Q_bb = B 2 sigma_b^2/tau dt
+    negative under b_tuning = 'process_noise' and sqrt(B) imaginary; tau <= 0 makes 2 sigma_b^2/tau negative), the
+    6-state settings out of range or without states = 6, and a fixed-point 6-state filter (none exists)."""
+    path = write_toml(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    msg = str(info.value)
+    assert str(path) in msg
+    for fragment in fragments:
+        assert fragment in msg
+
+
+def test_states_default_is_2_and_6_validates_with_its_settings():
+    assert Scenario().filter.states == 2
+    s = Scenario().with_overrides(**SIX, **{"filter.singularity_margin_deg": 3.0, "filter.singularity": "decouple",
+                                             "filter.discretisation": "euler"})
+    assert (s.filter.states, s.filter.singularity, s.filter.discretisation) == (6, "decouple", "euler")
+    assert s.with_overrides(seed=3).filter.states == 6  # overrides re-validate the dumped 6-state settings
+
+
+def test_six_state_config_carries_the_scenario_tuning():
+    """The 6-state tuning is the scenario's 2-state tuning on all three axes plus its 6-state settings."""
+    s = Scenario().with_overrides(**SIX, **{"filter.tuning_a": 1.5, "filter.tuning_b": 3.0,
+                                             "filter.b_tuning": "noise_gain", "filter.bias_tau_s": 800.0,
+                                             "filter.singularity_margin_deg": 2.5, "filter.singularity": "decouple"})
+    cfg = six_state_config(s)
+    two = filter_config(Scenario().with_overrides(**{"filter.tuning_a": 1.5, "filter.tuning_b": 3.0,
+                                                     "filter.b_tuning": "noise_gain", "filter.bias_tau_s": 800.0}))
+    assert isinstance(cfg, SixStateFilterConfig)
+    assert (cfg.dt_s, cfg.tuning_a, cfg.tuning_b, cfg.b_tuning) == (two.dt_s, 1.5, 3.0, "noise_gain")
+    assert cfg.bias_tau_s == (800.0,) * 3 and cfg.arw_rad_per_sqrt_s == (two.arw_rad_per_sqrt_s,) * 3
+    assert cfg.singularity_margin_rad == pytest.approx(math.radians(2.5)) and cfg.singularity == "decouple"
+    assert cfg.discretisation == "rotation"
+
+
+def test_a_run_with_six_states_is_refused_everywhere_a_filter_is_built(lab_toml):
+    """The API, the chain entry, the filter builder (both engines and the replayer go through it) and the
+    replayer's setup all refuse states = 6 with one message naming filter.states; states = 2 passes."""
+    scenario, _ = load_scenario(lab_toml)
+    six = scenario.with_overrides(**SIX)
+    require_engine_filter(scenario)
+    for call in (lambda: simulate(six), lambda: simulate_chain(six), lambda: filter_config(six),
+                 lambda: require_engine_filter(six), lambda: FirmwareSetup.from_scenario(six)):
+        with pytest.raises(NodesimError, match=f"filter.states = 6: {REFUSED}"):
+            call()
+
+
+def _six_state_toml(lab_toml, tmp_path, engine="auto"):
+    text = lab_toml.read_text()
+    assert "[filter]\n" in text and "[simulation]\n" in text
+    text = text.replace("[filter]\n", "[filter]\nstates = 6\n", 1)
+    text = text.replace("[simulation]\n", f'[simulation]\nengine = "{engine}"\n', 1)
+    path = tmp_path / "six.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("engine", ["event", "compiled"])
+def test_cli_run_with_six_states_exits_2_and_writes_nothing(lab_toml, tmp_path, capsys, engine):
+    path = _six_state_toml(lab_toml, tmp_path, engine)
+    assert load_scenario(path)[0].filter.states == 6
+    out = tmp_path / "run-out"
+    code = main(["run", str(path), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert f"filter.states = 6: {REFUSED}" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_firmware_export_refuses_six_states(lab_toml, tmp_path, capsys):
+    """No C header for a build the firmware model does not have (the 6-state filter has no fixed point)."""
+    code = main(["firmware", "export-config", str(_six_state_toml(lab_toml, tmp_path)), "-o", str(tmp_path / "node.h")])
+    err = capsys.readouterr().err
+    assert code == 2 and REFUSED in err
+    assert not (tmp_path / "node.h").exists()
