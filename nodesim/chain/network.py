@@ -288,9 +288,9 @@ class Network:
         the survey frame's length; built on first use, its draws from its own streams)."""
         if node_id not in self._up_skip_links:
             mac, streams, channel = self.scenario.mac, self._streams, self.up_skip_channel(node_id)
-            errors = FrameErrors(fr.SURVEY, streams.up_skip_bit_error_keys(self.R, node_id)) if mac.bit_errors else None
+            errors = FrameErrors(fr.SURVEY, streams.skip_bit_error_keys(self.R, node_id, up=True)) if mac.bit_errors else None
             self._up_skip_links[node_id] = self._make_link(
-                channel, LazyStreams(partial(streams.up_skip_link_batch, self.R, node_id), self.R), -1, errors)
+                channel, LazyStreams(partial(streams.skip_link_batch, self.R, node_id, up=True), self.R), -1, errors)
         return self._up_skip_links[node_id]
 
     def received_survey(self, packet: SurveyPacket, arrival_s: np.ndarray, hops: list) -> None:

@@ -205,25 +205,10 @@ class RunStreams:
         """Realization child index of link ``link``'s stream (after the node children)."""
         return self.n_nodes + link
 
-    def _skip_child(self, node: int) -> int:
-        """Realization child index of node ``node``'s fallback skip-link stream (after the radio hops)."""
-        return 4 * self.n_nodes + node
-
-    def _up_skip_child(self, node: int) -> int:
-        """Realization child index of node ``node``'s survey skip-link stream (up, to node - 2)."""
-        return 5 * self.n_nodes + node
-
-    def up_skip_link_batch(self, realizations: int, node: int) -> list[np.random.Generator]:
-        """Generators of node ``node``'s (1-based sender) survey skip link, realizations 0..realizations-1."""
-        return self._batch(realizations, self._up_skip_child(node))
-
-    def up_skip_link_states(self, realizations: int, node: int) -> np.ndarray:
-        """:meth:`up_skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.rng.pcg64`."""
-        return pcg64_states(self.seed, self._keys(realizations, self._up_skip_child(node)))
-
-    def up_skip_bit_error_keys(self, realizations: int, node: int) -> np.ndarray:
-        """The bit-error keys of node ``node``'s survey skip link (1-based sender)."""
-        return seed_words(self.seed, self._keys(realizations, self._up_skip_child(node), 0))[:, 0].copy()
+    def _skip_child(self, node: int, up: bool = False) -> int:
+        """Realization child index of node ``node``'s fallback skip-link stream (after the radio hops; ``up``: its
+        survey skip link up to node - 2, after those)."""
+        return (5 if up else 4) * self.n_nodes + node
 
     def link(self, realization: int, link: int) -> np.random.Generator:
         """Generator for link ``link`` (0 = encoder/top hop) in ``realization``."""
@@ -249,18 +234,18 @@ class RunStreams:
         """Generator for the fallback skip link of node ``node`` (1-based sender) in ``realization``."""
         return self._one(self.first_realization + realization, self._skip_child(node))
 
-    def skip_link_batch(self, realizations: int, node: int) -> list[np.random.Generator]:
-        """:meth:`skip_link` for realizations 0..realizations-1."""
-        return self._batch(realizations, self._skip_child(node))
+    def skip_link_batch(self, realizations: int, node: int, up: bool = False) -> list[np.random.Generator]:
+        """:meth:`skip_link` for realizations 0..realizations-1 (``up``: node ``node``'s survey skip link)."""
+        return self._batch(realizations, self._skip_child(node, up))
 
-    def skip_link_states(self, realizations: int, node: int) -> np.ndarray:
+    def skip_link_states(self, realizations: int, node: int, up: bool = False) -> np.ndarray:
         """:meth:`skip_link_batch` as PCG64 states (realizations, 4) for :mod:`nodesim.rng.pcg64`."""
-        return pcg64_states(self.seed, self._keys(realizations, self._skip_child(node)))
+        return pcg64_states(self.seed, self._keys(realizations, self._skip_child(node, up)))
 
     def bit_error_keys(self, realizations: int, link: int) -> np.ndarray:
         """Link ``link``'s bit-error keys (realizations,) uint64 (module docstring: child 0 of its stream)."""
         return seed_words(self.seed, self._keys(realizations, self._link_child(link), 0))[:, 0].copy()
 
-    def skip_bit_error_keys(self, realizations: int, node: int) -> np.ndarray:
-        """The bit-error keys of node ``node``'s fallback skip link (1-based sender)."""
-        return seed_words(self.seed, self._keys(realizations, self._skip_child(node), 0))[:, 0].copy()
+    def skip_bit_error_keys(self, realizations: int, node: int, up: bool = False) -> np.ndarray:
+        """The bit-error keys of node ``node``'s fallback skip link (1-based sender; ``up``: its survey skip link)."""
+        return seed_words(self.seed, self._keys(realizations, self._skip_child(node, up), 0))[:, 0].copy()

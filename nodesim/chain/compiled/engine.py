@@ -190,7 +190,7 @@ class _Links:
             if N <= i < 2 * N:
                 self.states[i] = streams.skip_link_states(R, i - N + 1)
             elif i >= 3 * N:
-                self.states[i] = streams.up_skip_link_states(R, i - 3 * N + 1)
+                self.states[i] = streams.skip_link_states(R, i - 3 * N + 1, up=True)
             else:  # down link h = h, up link h = 2N + h: the network's links N + h (RunStreams)
                 self.states[i] = streams.link_states(R, i if i < N else i - N)
         return self.states[i]
