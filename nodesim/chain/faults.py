@@ -82,6 +82,12 @@ class Fallback:
             return np.zeros(sending.shape, dtype=bool)
         failed = sending & ~delivered
         self.streak = np.where(failed, self.streak + 1, np.where(delivered, 0, self.streak))
-        g = min(int(t_s / self.skip.step_s), self.skip.margin_db.shape[0] - 1)
-        self.active = (self.streak > self.after_failures) & (self.skip.margin_db[g] >= self.min_margin_db)
+        self.active = (self.streak > self.after_failures) & skip_margin_ok(self.skip, t_s, self.min_margin_db)
         return failed & self.active
+
+
+def skip_margin_ok(skip: HopChannel, t_s: float, min_margin_db: float) -> np.ndarray:
+    """(R,) where the skip hop's margin at ``t_s`` (its time table's row, shadowing included) is at least
+    ``min_margin_db``: the fallback may use it."""
+    g = min(int(t_s / skip.step_s), skip.margin_db.shape[0] - 1)
+    return skip.margin_db[g] >= min_margin_db

@@ -179,6 +179,7 @@ class Network:
                          for h in range(c.nodes)]
         self._skips, self._skip_links, self._make_link, self._streams = skips, {}, link, streams
         self._up_skip_links: dict[int, Link] = {}
+        self._up_skip_channels: dict[int, HopChannel | None] = {}
         self._errors = errors
         self.surface = RadioState(R, mac.queue_length)
         self.seq = 0
@@ -270,18 +271,18 @@ class Network:
         skip = self.up_skip_channel(node_id) if node_id - 2 >= top else None
         if skip is None:
             return np.zeros(self.R, dtype=bool)
-        g = min(int(t_s / skip.step_s), skip.margin_db.shape[0] - 1)
-        return skip.margin_db[g] >= self.scenario.faults.fallback_min_margin_db
+        return faults.skip_margin_ok(skip, t_s, self.scenario.faults.fallback_min_margin_db)
 
     def up_skip_channel(self, node_id: int) -> HopChannel | None:
         """The skip hop between ``node_id`` and ``node_id - 2`` for survey frames (None where there is none or the
         fallback is off)."""
-        f, mac = self.scenario.faults, self.scenario.mac
-        skip = self._skips[node_id - 2] if 1 <= node_id - 2 else None
-        if skip is None or not (f.fallback and mac.enabled):
-            return None
-        return replace(skip.for_frame(mac.frame_bits(fr.SURVEY_BYTES), self.scenario.radio.bit_rate_bps),
-                       name=f"skip{node_id}-{node_id - 2}")
+        if node_id not in self._up_skip_channels:  # built once: every survey hop that fails asks
+            f, mac = self.scenario.faults, self.scenario.mac
+            skip = self._skips[node_id - 2] if 1 <= node_id - 2 else None
+            self._up_skip_channels[node_id] = None if skip is None or not (f.fallback and mac.enabled) else replace(
+                skip.for_frame(mac.frame_bits(fr.SURVEY_BYTES), self.scenario.radio.bit_rate_bps),
+                name=f"skip{node_id}-{node_id - 2}")
+        return self._up_skip_channels[node_id]
 
     def up_skip_link(self, node_id: int) -> Link:
         """The survey skip link from ``node_id`` up to node ``node_id - 2`` (over the skip hop between them, for
