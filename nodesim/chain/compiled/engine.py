@@ -351,14 +351,12 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
         return
     n_static = int(starts[0])
     if net.scenario.filter.implementation == "fixed":
-        _run_node_firmware(net, n, out, k_end, codes, bits)
+        _run_node_firmware(net, n, out, k_end, n_static, codes, bits)
         return
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
     state, params = float_kernel.lane_states(node.kf), float_kernel.kernel_params(node.kf)
-    # run_node takes a float and an integer filter's arrays (one compiled signature); the unused one is a stand-in
-    fstate, fparams, istate, iparams = state, params, np.zeros((1, 5), np.int64), np.zeros(1, np.int64)
     enc_ref = np.zeros((R, K))
     ask, t_read, yaw_enc, rate_enc = _encoder_reads(net, n, t, codes, out)
     if ask.size:
@@ -370,7 +368,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)  # per range of realizations, summed below
-        filters.run_node(False, fstate, fparams, istate, iparams, counts, sig.gyro_rad_s, t, n_static + 1, k_end,
+        filters.run_node(state, params, counts, sig.gyro_rad_s, t, n_static + 1, k_end,
                          codes, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K], *up,
                          net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                          node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
@@ -401,8 +399,9 @@ def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
     return tuple(frames)
 
 
-def _run_node_firmware(net, n: int, out, k_end: int, codes: np.ndarray, bits) -> None:
-    """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`)."""
+def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, bits) -> None:
+    """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`); its filter
+    starts at tick ``n_static``."""
     node, sig = net.nodes[n], net.nodes[n].sig
     src_node, src_tick = out[3], out[4]
     t, R, fw = sig.t_s, net.R, node.fw
@@ -426,7 +425,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, codes: np.ndarray, bits) ->
     up_frames = _received_frames(net, n, above, offset, src_tick[:, n, :K], bits)
     inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
-    k_first = int(np.flatnonzero(codes == tp.START)[0]) + 1
+    k_first = n_static + 1  # the first tick that may take a reference or send a frame
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below

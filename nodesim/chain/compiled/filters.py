@@ -11,10 +11,8 @@ realization r, as :class:`nodesim.chain.node_process.ChainNode` does it:
         psi_ref = psi_hat_(n-s)[j] + omega transfer                                  (thesis eq 3.29)
         R = P_(n-s)[j] + (transfer sigma_rate)^2 + sigma_off^2                        (thesis digest 2.6)
     record yaw, P_yy and bias.
-The filter arithmetic is :mod:`.float_kernel` or :mod:`firmware_model.fixed_kernel` (``fixed``), on the state of
-that kind (``fstate`` (R, 5) float64 or ``istate`` (R, 5) int64 raws; the other one is a placeholder).
-The three dispatchers are inlined into the tick loop at numba's IR level (a call passing five arrays cost
-more than a float predict: 1000 realizations x 228 ticks, float 8.8 -> 5.4 ms, fixed 42 -> 33 ms).
+:func:`run_node` is the float filter (:mod:`.float_kernel`, state ``fstate`` (R, 5)); the fixed-point firmware runs
+its whole tick, :func:`firmware_model.node_firmware.node_tick`, in :func:`run_node_firmware`.
 """
 
 from __future__ import annotations
@@ -30,32 +28,8 @@ from nodesim.chain.compiled import float_kernel as flk
 from nodesim.chain.compiled import tick_plan as tp
 
 
-@njit(cache=True, inline="always")
-def _predict(fixed, fst, ist, rate, fparams, iparams, counts) -> None:
-    if fixed:
-        fxk.predict(ist, rate, iparams, counts)
-    else:
-        flk.predict(fst, rate, fparams, counts)
-
-
-@njit(cache=True, inline="always")
-def _update(fixed, fst, ist, ref, var, fparams, iparams, counts) -> None:
-    if fixed:
-        fxk.update(ist, ref, var, iparams, counts)
-    else:
-        flk.update(fst, ref, var, fparams, counts)
-
-
-@njit(cache=True, inline="always")
-def _outputs(fixed, fst, ist, fparams, iparams):
-    """(yaw, P_yy, bias) as the filter reports them."""
-    if fixed:
-        return fxk.yaw_rad(ist, iparams), fxk.yaw_variance_rad2(ist, iparams), fxk.bias_rad_s(ist, iparams)
-    return flk.yaw_rad(fst, fparams), flk.yaw_variance_rad2(fst, fparams), flk.bias_rad_s(fst, fparams)
-
-
 @njit(cache=True, _nrt=False, nogil=True)
-def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, k_end, codes, enc_ref, enc_var,
+def run_node(fstate, fparams, counts, gyro, t, k_first, k_end, codes, enc_ref, enc_var,
              applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
              yaw, var, bias, ref_yaw, ref_var, r_first, r_end) -> None:
     """Ticks ``k_first`` .. ``k_end - 1`` of one node in realizations ``r_first`` .. ``r_end - 1`` (module
@@ -64,30 +38,31 @@ def run_node(fixed, fstate, fparams, istate, iparams, counts, gyro, t, k_first, 
     state); ``up_*`` = (node above, node two above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how
     far up the reference came from), -1 for none."""
     for r in range(r_first, r_end):  # realizations are independent: one after the other, each over its ticks
-        fst, ist = fstate[r if not fixed else 0], istate[r if fixed else 0]
+        fst = fstate[r]
         for k in range(k_first, k_end):
             c = codes[k]
             if c == tp.STATIC:
                 continue
             if c != tp.HOLD:
-                _predict(fixed, fst, ist, gyro[r, k], fparams, iparams, counts)
+                flk.predict(fst, gyro[r, k], fparams, counts)
             if c == tp.ASK:
                 if applied[r, k]:
-                    _update(fixed, fst, ist, enc_ref[r, k], enc_var, fparams, iparams, counts)
+                    flk.update(fst, enc_ref[r, k], enc_var, fparams, counts)
                     ref_yaw[r, k], ref_var[r, k] = enc_ref[r, k], enc_var
             elif c == tp.RUN and src_node[r, k] > 0:
                 s, j = src_node[r, k] - 1, src_tick[r, k]
                 transfer = t[k] - up_t[s][j]
-                omega = gyro[r, k] - _outputs(fixed, fst, ist, fparams, iparams)[2]
+                omega = gyro[r, k] - flk.bias_rad_s(fst, fparams)
                 if extrapolate and k > 0:
                     slope = (gyro[r, k] - gyro[r, k - 1]) / dt_s
                     omega = omega + slope * 0.5 * (dt_s - transfer)
                 ref = up_yaw[s][r, j] + omega * transfer
                 d = transfer * rate_sigma
                 v = up_var[s][r, j] + d * d + offset_var
-                _update(fixed, fst, ist, ref, v, fparams, iparams, counts)
+                flk.update(fst, ref, v, fparams, counts)
                 ref_yaw[r, k], ref_var[r, k] = ref, v
-            yaw[r, k], var[r, k], bias[r, k] = _outputs(fixed, fst, ist, fparams, iparams)
+            yaw[r, k], var[r, k], bias[r, k] = (flk.yaw_rad(fst, fparams), flk.yaw_variance_rad2(fst, fparams),
+                                                flk.bias_rad_s(fst, fparams))
 
 
 @njit(cache=True)
