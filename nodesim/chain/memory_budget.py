@@ -41,8 +41,8 @@ class RunMemory:
     """A run's estimated peak memory [bytes] and the parts it is made of."""
 
     base_bytes: int
-    per_realization_bytes: int  # R N (K + 1) b_rt
-    per_tick_bytes: int  # (the rows output.timeseries keeps) b_t + N (K + 1) b_event
+    per_realization_bytes: int  # R sum_n (K_n + 1) b_rt
+    per_tick_bytes: int  # (the rows output.timeseries keeps) b_t + sum_n (K_n + 1) b_event
     node_ticks: int
     realizations: int
 

@@ -260,34 +260,10 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
                 cursor[n] = s + 1
                 if r == 0:
                     s_event[s] = e
-                at = ready  # after the node's own exchange (a top node's encoder reply)
-                top = s_top[s]
-                h = n
-                while h >= top:  # hop by hop up to the top node, then the ground station
-                    rx, up = (h - 1, 2 * N + h) if h > top else (surface, 2 * N)  # the top node's: hop 1's up link
-                    got, arr, end, short, _, _ = transfer(up, r, at, h, rx, dead_at[rx] if h > top else np.inf,
-                                                          chan, draws, radio, stats, mac, bits, scratch)
-                    if short:
-                        need[0], need[1], need[2] = up, r, e
-                        return NEED_DRAWS
-                    if got:
-                        at, h = arr, h - 1
-                        continue
-                    link = 3 * N + h  # unanswered: over the skip hop to the node two above (Network.up_skip_open)
-                    if math.isnan(end) or not s_skip[h] or h - 2 < top:
-                        break
-                    if margin[r, link, time_row(chan, link, t)] < fb_min_margin:
-                        break
-                    got, arr, end, short, _, _ = transfer(link, r, end, h, h - 2, dead_at[h - 2], chan, draws, radio,
-                                                          stats, mac, bits, scratch)
-                    if short:
-                        need[0], need[1], need[2] = link, r, e
-                        return NEED_DRAWS
-                    if not got:
-                        break
-                    at, h = arr, h - 2
-                if h < top:
-                    s_arrival[r, s] = at
+                status = _send_survey(r, e, n, s_top[s], ready, t, dead_at, s_skip, fb_min_margin, chan, margin,
+                                      draws, radio, stats, mac, bits, scratch, need, s_arrival, s)
+                if status != DONE:
+                    return status
     return DONE
 
 
@@ -318,4 +294,40 @@ def _send_estimate(r, e, n, k, seq, t_ready, t, dead_at, fb_on, fb_link, fb_afte
             return NEED_DRAWS
         if got and not _deliver(inbox, r, n + 2, seq, n, k, arr, c_try, c_ber):
             return INBOX_FULL
+    return DONE
+
+
+@njit(cache=True, inline="always")
+def _send_survey(r, e, n, top, at, t, dead_at, skip_on, min_margin_db, chan, margin, draws, radio, stats, mac, bits,
+                 scratch, need, arrival, s) -> int:
+    """Node n's survey, ready at ``at``, hop by hop up to node ``top`` and the ground station: up link 2N + h from
+    node h to h - 1 (hop 1's, 2N, from the top node to the surface); a hop left unanswered goes on over node h's
+    survey skip link 3N + h to h - 2 where ``skip_on[h]``, h - 2 is not above the top node and the skip hop's margin
+    at t is at least ``min_margin_db`` (:meth:`nodesim.chain.network.Network.send_survey`).  ``arrival[r, s]`` = its
+    arrival at the ground station (left NaN where lost); a status code."""
+    N = dead_at.shape[0]
+    surface = N
+    h = n
+    while h >= top:
+        rx, up = (h - 1, 2 * N + h) if h > top else (surface, 2 * N)
+        got, arr, end, short, _, _ = transfer(up, r, at, h, rx, dead_at[rx] if h > top else np.inf, chan, draws,
+                                              radio, stats, mac, bits, scratch)
+        if short:
+            need[0], need[1], need[2] = up, r, e
+            return NEED_DRAWS
+        if got:
+            at, h = arr, h - 1
+            continue
+        link = 3 * N + h
+        if math.isnan(end) or not skip_on[h] or h - 2 < top or margin[r, link, time_row(chan, link, t)] < min_margin_db:
+            return DONE  # lost here
+        got, arr, end, short, _, _ = transfer(link, r, end, h, h - 2, dead_at[h - 2], chan, draws, radio, stats, mac,
+                                              bits, scratch)
+        if short:
+            need[0], need[1], need[2] = link, r, e
+            return NEED_DRAWS
+        if not got:
+            return DONE
+        at, h = arr, h - 2
+    arrival[r, s] = at
     return DONE
