@@ -275,18 +275,19 @@ PEAK = ("import sys\nfrom nodesim.cli.main import main\ncode = main(sys.argv[1:]
 
 
 def _process(args: list[str]) -> tuple[float, float, str]:
-    """(wall [s], peak RSS [bytes] (the process's own VmHWM), stdout) of a whole ``nodesim`` process."""
+    """(wall [s], peak RSS [bytes], stdout) of a whole Python process ``python ARGS``; the peak is the process's
+    own VmHWM where it prints one (:data:`PEAK`), else NaN."""
     import subprocess
     import sys
     import time
 
     t = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", PEAK, *args], capture_output=True, text=True, check=False)
+    proc = subprocess.run([sys.executable, *args], capture_output=True, text=True, check=False)
     wall = time.perf_counter() - t
     if proc.returncode:
-        raise RuntimeError(f"nodesim {' '.join(args)} failed: {proc.stderr[-2000:]}")
+        raise RuntimeError(f"python {' '.join(args[-6:])} failed: {proc.stderr[-2000:]}")
     peak = [float(x.split()[1]) * 1024.0 for x in proc.stderr.splitlines() if x.startswith("peak_kib ")]
-    return wall, peak[0], proc.stdout
+    return wall, peak[0] if peak else float("nan"), proc.stdout
 
 
 def drilling_day_1000() -> dict:
@@ -312,17 +313,18 @@ def drilling_day_1000() -> dict:
             out["drilling_day_1000_wall_s"] = float("nan")  # refused by the memory guard: not run, not extrapolated
         else:
             with resources.as_file(resources.files("scenarios") / "perf" / "drilling_day_1000.toml") as p:
-                wall, peak, _ = _process(["run", str(p), "--out", str(tmp / "day"), "--quiet", "--json"])
+                wall, peak, _ = _process(["-c", PEAK, "run", str(p), "--out", str(tmp / "day"), "--quiet", "--json"])
             out["drilling_day_1000_wall_s"], out["drilling_day_1000_peak_rss_gb"] = wall, peak / 1e9
         for hours in DAY_HOURS:
             path = _day_slice(tmp, hours)
-            wall, peak, text = _process(["run", str(path), "--out", str(tmp / f"run{hours}"), "--quiet", "--json"])
+            wall, peak, text = _process(["-c", PEAK, "run", str(path), "--out", str(tmp / f"run{hours}"), "--quiet",
+                                         "--json"])
             ticks = int(json.loads(text)["simpy_events"])
             out[f"drilling_day_first_{hours}h_wall_s"] = wall
             out[f"drilling_day_first_{hours}h_peak_rss_gb"] = peak / 1e9
             out[f"drilling_day_first_{hours}h_node_ticks"] = ticks
             if hours == 1:
-                skel_wall, _, skel_text = _process_skeleton(path)
+                skel_wall, _, skel_text = _process([__file__, "skeleton", str(path)])
                 assert int(skel_text.strip()) == ticks, "the skeleton ticks the same nodes at the same times"
                 out["drilling_day_first_1h_skeleton_wall_s"] = skel_wall
                 out["drilling_day_node_ticks_per_s_vs_skeleton"] = skel_wall / wall  # same node-ticks on each side
@@ -335,16 +337,6 @@ def drilling_day_1000() -> dict:
         out[f"drilling_10_tubes_{engine}_s"] = best_time_s(lambda: simulate_chain(s), repeat=2)
     out["drilling_10_tubes_compiled_speedup_vs_event"] = out["drilling_10_tubes_event_s"] / out["drilling_10_tubes_compiled_s"]
     return out
-
-
-def _process_skeleton(path: Path) -> tuple[float, float, str]:
-    import subprocess
-    import sys
-    import time
-
-    t = time.perf_counter()
-    proc = subprocess.run([sys.executable, __file__, "skeleton", str(path)], capture_output=True, text=True, check=True)
-    return time.perf_counter() - t, 0.0, proc.stdout
 
 
 BENCHMARKS = [chain_drilling_batched_vs_loop, chain100_1h_overhead_vs_skeleton, batched_mc_speedup,
