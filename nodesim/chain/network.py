@@ -236,7 +236,7 @@ class Network:
         goes on over the skip hop to the node two above, as the fallback carries estimates down
         (:meth:`up_skip_open`); otherwise the survey is lost there."""
         t = self.env.now
-        top = min(tl.node_id for tl in self.motion.timelines if tl.present_from_s <= t)
+        top = self.motion.top_node_id(t)
         at = np.broadcast_to(np.asarray(ready_s, dtype=float), (self.R,)).copy()  # after the node's own exchange
         valid = packet.valid.copy()
         holder = np.full(self.R, packet.node_id)  # the node that has the survey, per realization (top - 1: ground)

@@ -94,3 +94,7 @@ class ChainMotion:
     stops: tuple[SurveyStop, ...]
     metric_windows: tuple[tuple[float, float], ...]  # where RMS errors are measured
     rotation_end_s: float  # end of the last rotation (bias convergence is timed from here)
+
+    def top_node_id(self, t_s: float) -> int:
+        """The top node of the string at ``t_s``: the smallest id already in its tube (where surveys go up to)."""
+        return min(tl.node_id for tl in self.timelines if tl.present_from_s <= t_s)

@@ -228,14 +228,13 @@ def _survey_plan(net, T: np.ndarray, plan: np.ndarray) -> tuple:
     top node present then.  (stops, first (N,), stop (N,), tick (S,), top (S,)), sorted by node then tick."""
     N = net.n_nodes
     rows = []  # (node index, tick, top index, stop)
-    present = np.array([tl.present_from_s for tl in net.motion.timelines])
     for n, node in enumerate(net.nodes):
         t = T[:, n]
         for stop in node.stops:
             k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (plan[:, n] != tp.STATIC)
                                & (plan[:, n] != tp.ABSENT))
             if k.size:
-                top = int(np.flatnonzero(present <= t[k[0]])[0])
+                top = net.motion.top_node_id(t[k[0]]) - 1
                 rows.append((n, int(k[0]), top, stop))
     rows.sort(key=lambda x: (x[0], x[1]))
     nodes = np.array([x[0] for x in rows], dtype=np.int64)
