@@ -356,8 +356,8 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
     state, params = float_kernel.lane_states(node.kf), float_kernel.kernel_params(node.kf)
-    enc_ref = np.zeros((R, K))
     ask, t_read, yaw_enc, rate_enc = _encoder_reads(net, n, t, codes, out)
+    enc_ref = np.zeros((R, K) if ask.size else (1, 1))  # read at ASK ticks only: a stand-in for the other nodes
     if ask.size:
         enc_ref[:, ask] = yaw_enc - rate_enc * (t_read - t[ask])
     src = src_node[:, n, :K]
