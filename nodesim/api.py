@@ -15,6 +15,7 @@ directory that already holds a run.  ``nodesim run`` is ``simulate`` followed by
 from __future__ import annotations
 
 import json
+import os
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -24,6 +25,7 @@ import numpy as np
 
 from nodesim.errors import NodesimError
 from nodesim.io.rundir import (
+    atomic_write_with,
     check_empty_dir,
     default_run_dir,
     git_commit,
@@ -39,6 +41,7 @@ from nodesim.io.rundir import (
 from nodesim.scenario.schema import Scenario, parse_scenario, read_scenario
 
 TABLES = ("realizations", "timeseries", "hops", "surveys", "ground_survey")  # <name>.csv, in writing order
+TIMESERIES_FILES = {"parquet": "timeseries.parquet", "csv": "timeseries.csv"}  # by [output] format
 PLOT_FILE = "yaw_error.png"
 RUN_FILES = ("summary.json", "manifest.json", PLOT_FILE, "timeseries.parquet") + tuple(f"{t}.csv" for t in TABLES)
 
@@ -70,8 +73,13 @@ def simulate(
 
 
 def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
-                      progress: Callable[[float], None] | None = None) -> "Run":
-    """:func:`simulate` for a validated scenario whose source hash the caller knows (``nodesim run``, sweeps)."""
+                      progress: Callable[[float], None] | None = None, stream_to: str | Path | None = None) -> "Run":
+    """:func:`simulate` for a validated scenario whose source hash the caller knows (``nodesim run``, sweeps).
+
+    ``stream_to``: a directory (``nodesim run`` uses a private one beside the run directory) where the run writes
+    its timeseries table node by node while it simulates (:mod:`nodesim.chain.streaming`): the run then never holds
+    every node's per-tick records, and :meth:`Run.save` moves the table into the run directory.  The run's files
+    are the same as without it."""
     from nodesim.chain.compiled.engine import choose_engine
     from nodesim.chain.estimator import require_engine_filter
     from nodesim.chain.memory_budget import available_memory_bytes, check_run_memory
@@ -80,10 +88,25 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
     from nodesim.chain.run_tables import run_tables
 
     require_engine_filter(scenario)  # filter.states = 6: refused before any work (issue 24)
-    check_run_memory(scenario, choose_engine(scenario), available_memory_bytes())  # refuse before any work
+    engine = choose_engine(scenario)
+    check_run_memory(scenario, engine, available_memory_bytes(), streamed=stream_to is not None)  # before any work
     started = datetime.now(timezone.utc)
     t0 = time.perf_counter()
-    chain = simulate_chain(scenario, progress)
+    stream = table = None
+    if stream_to is not None:
+        from nodesim.chain.streaming import NodeStream, TimeseriesFile
+        from nodesim.motion.chain_motion import build_motion
+
+        table = TimeseriesFile(Path(stream_to) / TIMESERIES_FILES[scenario.output.format], scenario.output.format)
+        stream = NodeStream(scenario, build_motion(scenario), table)
+    try:
+        chain = simulate_chain(scenario, progress, on_node=stream)
+        if table is not None:
+            table.close()
+    except BaseException:
+        if table is not None:
+            table.abort()
+        raise
     t_sim = time.perf_counter() - t0
     per_real = per_realization_metrics(chain, scenario.metrics)
     summary = summarize(per_real)
@@ -91,8 +114,8 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
     summary["seed"] = scenario.seed
     summary["simpy_events"] = chain.simpy_events
     summary["engine"] = chain.engine
-    summary["nodes"] = len(chain.nodes)
-    summary["firmware_saturations"] = sum(sum(n.firmware_overflows.values()) for n in chain.nodes)
+    summary["nodes"] = chain.node_count
+    summary["firmware_saturations"] = sum(sum(n.firmware_overflows.values()) for n in chain.node_results)
     tables = run_tables(chain, per_real, scenario.output)
     summary["timing"] = {"simulation_s": t_sim, "wall_s": time.perf_counter() - t0}
     manifest = {
@@ -105,7 +128,10 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
         "wall_time_s": None,  # set by Run.save: simulation and writing
         "host": host_info(),
     }
-    return Run(scenario, summary, manifest, tables, chain.rotation_end_s, chain)
+    run = Run(scenario, summary, manifest, tables, chain.rotation_end_s, chain)
+    if stream is not None:
+        run._streamed = (table.path, stream.traces)
+    return run
 
 
 class Run:
@@ -128,6 +154,7 @@ class Run:
         self._frames: dict = {}
         self.rotation_end_s = float(rotation_end_s)
         self.chain = chain
+        self._streamed: tuple[Path, list] | None = None  # a streamed run: (its timeseries file, the yaw traces)
 
     def __repr__(self) -> str:
         s = self.summary
@@ -143,7 +170,14 @@ class Run:
             return NotImplemented
         return (self.scenario == other.scenario and self.summary == other.summary
                 and list(self._tables) == list(other._tables)
-                and all(_same_table(self._tables[k], other._tables[k]) for k in self._tables))
+                and all(_same_table(self._columns(k), other._columns(k)) for k in self._tables))
+
+    def _columns(self, name: str) -> dict[str, np.ndarray]:
+        """Table ``name``'s columns; a streamed run's timeseries read back from its file (on first use)."""
+        if self._tables[name] is None:  # the timeseries of a streamed run
+            frame = _read_table(self._streamed[0])
+            self._tables[name] = {k: frame[k].to_numpy() for k in frame.columns}
+        return self._tables[name]
 
     __hash__ = None  # mutable summary timing: not hashable
 
@@ -157,7 +191,7 @@ class Run:
         if name not in self._frames:
             import pandas as pd
 
-            self._frames[name] = pd.DataFrame({k: np.asarray(v) for k, v in self._tables[name].items()})
+            self._frames[name] = pd.DataFrame({k: np.asarray(v) for k, v in self._columns(name).items()})
         return self._frames[name]
 
     @property
@@ -183,9 +217,10 @@ class Run:
     # -- plots ----------------------------------------------------------------------------------------------
     def plot_yaw(self):
         """Yaw error and bias estimate of every node against time (realization 0) as a matplotlib Figure."""
-        from nodesim.chain.yaw_plot import yaw_figure
+        from nodesim.chain.yaw_plot import traces_of_table, yaw_figure
 
-        return yaw_figure(self._tables["timeseries"], self.rotation_end_s, f"{self.scenario.name}: realization 0")
+        traces = self._streamed[1] if self._streamed else traces_of_table(self._tables["timeseries"])
+        return yaw_figure(traces, self.rotation_end_s, f"{self.scenario.name}: realization 0")
 
     def plot_wellpath(self, tool: str = "mpu6500_filtered", sigma: str = "2", propagation: str = "iscwsa"):
         """The received surveys' wellpath (realization 0, plan view) with its uncertainty ellipses for
@@ -227,17 +262,35 @@ class Run:
 
     def _write(self, out: Path, plots: bool, t0: float) -> None:
         for name, columns in self._tables.items():
-            if name == "timeseries" and self.scenario.output.format == "parquet":
+            if name == "timeseries" and self._streamed is not None:
+                self._place_streamed(out)
+            elif name == "timeseries" and self.scenario.output.format == "parquet":
                 write_parquet(out / "timeseries.parquet", columns, compression="zstd")
             else:
                 write_csv(out / f"{name}.csv", columns)
-        if plots and self._tables["timeseries"]["node"].size:  # output.timeseries = "none": nothing to plot
+        rows = bool(self._streamed[1]) if self._streamed else self._tables["timeseries"]["node"].size > 0
+        if plots and rows:  # output.timeseries = "none": nothing to plot
             write_png(out / PLOT_FILE, self.plot_yaw())
         timing = self.summary["timing"]
         timing["save_s"] = time.perf_counter() - t0
         self.manifest["wall_time_s"] = timing["wall_s"] + timing["save_s"]
         write_json(out / "summary.json", self.summary)
         write_json(out / "manifest.json", self.manifest)
+
+
+    def _place_streamed(self, out: Path) -> None:
+        """Move a streamed run's timeseries file into ``out`` (a rename beside it, else a copy), where it then is."""
+        import shutil
+
+        src = self._streamed[0]
+        dst = Path(out) / src.name
+        if src.resolve() == dst.resolve():
+            return
+        try:
+            os.replace(src, dst)
+        except OSError:  # another file system: copy through a temporary file
+            atomic_write_with(dst, lambda p: shutil.copyfile(src, p))
+        self._streamed = (dst, self._streamed[1])
 
 
 def check_unused(directory: str | Path) -> None:
@@ -247,12 +300,8 @@ def check_unused(directory: str | Path) -> None:
 
 def load_run(directory: str | Path) -> Run:
     """Read a run directory written by :meth:`Run.save` (or ``nodesim run``) back into a :class:`Run`."""
-    import pandas as pd
-
     from nodesim.motion.chain_motion import build_motion
 
-    # pandas >= 3 parses floats exactly by default (and deprecates the option); older pandas needs asking
-    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
     d = Path(directory)
     files = {name: d / name for name in ("summary.json", "manifest.json")}
     missing = [name for name, path in files.items() if not path.is_file()]
@@ -268,15 +317,27 @@ def load_run(directory: str | Path) -> Run:
     for name in TABLES:
         path = d / f"{name}.csv"
         if name == "timeseries" and (d / "timeseries.parquet").is_file():
-            frame = read_parquet(d / "timeseries.parquet")
+            frame = _read_table(d / "timeseries.parquet")
         elif path.is_file():
-            frame = pd.read_csv(path, keep_default_na=False, na_values=["nan"], **exact)
+            frame = _read_table(path)
         else:
             continue
         tables[name] = {k: frame[k].to_numpy() for k in frame.columns}
     if "timeseries" not in tables:
         raise NodesimError(f"{d}: not a run directory (no timeseries.parquet or timeseries.csv)")
     return Run(scenario, summary, manifest, tables, build_motion(scenario).rotation_end_s)
+
+
+def _read_table(path: Path):
+    """A table file of a run directory as a DataFrame: Parquet, or CSV with its floats parsed exactly ("nan" the
+    only missing value)."""
+    if path.suffix == ".parquet":
+        return read_parquet(path)
+    import pandas as pd
+
+    # pandas >= 3 parses floats exactly by default (and deprecates the option); older pandas needs asking
+    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+    return pd.read_csv(path, keep_default_na=False, na_values=["nan"], **exact)
 
 
 def _same_table(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:

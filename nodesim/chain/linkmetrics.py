@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from nodesim.chain.network import ChainRun
+from nodesim.chain.records import ChainRun
 
 
 def _ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:

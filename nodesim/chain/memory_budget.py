@@ -79,7 +79,8 @@ def estimate_run_memory(scenario: Scenario, engine: str) -> RunMemory:
                      tables, node_ticks, R)
 
 
-def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None) -> RunMemory:
+def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None,
+                     streamed: bool = False) -> RunMemory:
     """The estimate, or a :class:`NodesimError` (one line: the estimate, what is available, the keys that bring it
     down, the largest part first) when it exceeds ``available_bytes`` (None: not known, not checked)."""
     need = estimate_run_memory(scenario, engine)

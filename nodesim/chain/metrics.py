@@ -36,7 +36,8 @@ import numpy as np
 
 from firmware_model.survey_resolution import circular_moving_average, trailing_moving_average
 from nodesim.chain.linkmetrics import link_metrics
-from nodesim.chain.network import ChainRun, NodeRun
+from nodesim.chain.records import ChainRun, NodeRun
+from nodesim.motion.timelines import ChainMotion
 from nodesim.scenario.schema import MetricsSection
 from nodesim.units import rad_to_deg, wrap_pi
 
@@ -115,9 +116,10 @@ def reference_attitude(true_inclination_rad: np.ndarray, true_azimuth_rad: np.nd
     return np.arctan2(np.hypot(x, y), z), np.arctan2(y, x)
 
 
-def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[str, np.ndarray]:
-    """Metric arrays of shape (R,) for one node, in edge units (deg, s)."""
-    sel = metric_ticks(node, run.motion.metric_windows)
+def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> dict[str, np.ndarray]:
+    """Metric arrays of shape (R,) for one node, in edge units (deg, s) (``motion``: the run's metric windows and
+    the end of its last rotation)."""
+    sel = metric_ticks(node, motion.metric_windows)
     R = node.yaw_est_rad.shape[0]
     inc, azi = output_average(node, window.output_moving_average_points)
     ref_inc, ref_azi = reference_attitude(node.true_inclination_rad[sel], node.true_azimuth_rad[sel],
@@ -131,7 +133,7 @@ def node_metrics(run: ChainRun, node: NodeRun, window: MetricsSection) -> dict[s
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows (no update) give NaN on purpose
         age = np.nanmean(np.where(node.update_mask[:, sel], node.update_age_s[:, sel], np.nan), axis=1)
     convergence = bias_convergence_time_s(
-        node, run.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
+        node, motion.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
     )
     nan = np.full(R, np.nan)
     since = _time_since_update(node)[:, sel] if sel.any() else np.full((R, 1), np.nan)
@@ -160,21 +162,22 @@ def _time_since_update(node: NodeRun) -> np.ndarray:
 def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, np.ndarray]:
     """All metric arrays (R,): the headline keys (bottom node), ``node<id>_*`` per node, packet counts."""
     out: dict[str, np.ndarray] = {}
-    per_node = [node_metrics(run, n, window) for n in run.nodes]
+    nodes = run.node_results  # a streamed run's summaries carry the metrics computed node by node
+    per_node = [node_metrics(run.motion, n, window) for n in run.nodes] if run.nodes else [s.metrics for s in nodes]
     out.update(per_node[-1])
-    for node, m in zip(run.nodes, per_node):
+    for node, m in zip(nodes, per_node):
         out.update({f"node{node.node_id}_{k}": v for k, v in m.items()})
-    out["stale_packets"] = sum(n.stale_packets for n in run.nodes).astype(float)
-    out["duplicate_packets"] = sum(n.duplicate_packets for n in run.nodes).astype(float)
+    out["stale_packets"] = sum(n.stale_packets for n in nodes).astype(float)
+    out["duplicate_packets"] = sum(n.duplicate_packets for n in nodes).astype(float)
     out["lost_packets"] = run.lost_packets.astype(float)
     # ADC readings (gyro and accelerometer, per axis) clipped at full scale, summed over the nodes
     # (nodesim.sensors.chain_imu); the summary gives the mean over realizations
-    R = run.nodes[0].yaw_est_rad.shape[0]
+    R = run.lost_packets.shape[0]
     out["adc_clipped_samples"] = sum((n.adc_clipped_samples if n.adc_clipped_samples is not None else np.zeros(R))
-                                     for n in run.nodes).astype(float)
+                                     for n in nodes).astype(float)
     out.update(link_metrics(run))
     if run.motion.stops:
-        received = np.zeros(run.nodes[0].yaw_est_rad.shape[0])
+        received = np.zeros(R)
         for g in run.surveys:
             received += g.packet.valid
         out["surveys_received"] = received

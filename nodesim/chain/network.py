@@ -39,6 +39,7 @@ from nodesim.motion.timelines import ChainMotion
 from nodesim.chain.node_process import ChainNode
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.packets import SurveyPacket, survey_frame, survey_sigmas_rad
+from nodesim.chain.records import ChainRun, GroundSurvey, NodeRun
 from nodesim.chain.radio import HopChannel, hop_channels
 from nodesim.chain.sensing import EncoderReader, node_signals, shared_truth
 from nodesim.errors import NodesimError
@@ -72,76 +73,10 @@ def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float
     return offset_s + np.arange(int(math.floor((duration_s - offset_s) / period + 1e-9)) + 1) * period
 
 
-@dataclass(frozen=True)
-class NodeRun:
-    """Per-tick records of one node (realization axis first; NaN where the node does not exist yet)."""
-
-    node_id: int
-    t_s: np.ndarray  # (K,)
-    running: np.ndarray  # (K,) filter running and not holding
-    update_mask: np.ndarray  # (R, K)
-    update_age_s: np.ndarray  # (R, K) age of the reference at use, NaN without update
-    true_yaw_rad: np.ndarray  # (K,)
-    true_inclination_rad: np.ndarray  # (K,)
-    true_azimuth_rad: np.ndarray  # (K,)
-    yaw_est_rad: np.ndarray
-    yaw_var_rad2: np.ndarray
-    true_bias_rad_s: np.ndarray
-    bias_est_rad_s: np.ndarray
-    inclination_rad: np.ndarray  # moving-averaged, as the firmware reports it
-    azimuth_rad: np.ndarray
-    stale_packets: np.ndarray  # (R,)
-    duplicate_packets: np.ndarray  # (R,)
-    filter_start_s: float
-    accel_sigma_m_s2: float
-    firmware_overflows: dict  # fixed-point saturation/overflow events per site (empty for the float filter)
-    # what the firmware read and the references it used (for replay logs, nodesim.replay.chain_log)
-    gyro_rad_s: np.ndarray | None = None  # (R, K) tick-averaged z gyro
-    specific_force: np.ndarray | None = None  # (R, K, 3) sensor frame
-    gyro_counts: np.ndarray | None = None  # (R, K, 3) int64 per-tick sums of the int16 samples
-    accel_counts: np.ndarray | None = None  # (R, K, 3) int64
-    samples: np.ndarray | None = None  # (K,) int64 samples per tick
-    ref_yaw_rad: np.ndarray | None = None  # (R, K) NaN where no update
-    ref_var_rad2: np.ndarray | None = None
-    present_from_s: float = 0.0
-    adc_clipped_samples: np.ndarray | None = None  # (R,) gyro + accelerometer axis readings clipped at full scale
-    estimate_frames: np.ndarray | None = None  # (R, K, 27) uint8 the estimate frames it sent (fixed firmware), 0 = none
-    # (R, 2) rad: static error of the lab's measured truth (along, across the tilt; metrics.reference_accuracy_pct,
-    # nodesim.chain.sensing.reference_error_rad); None: the metrics compare with the exact geometry
-    reference_error_rad: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class GroundSurvey:
-    """A survey as the ground station received it."""
-
-    packet: SurveyPacket
-    arrival_s: np.ndarray  # (R,) NaN where it did not arrive
-    # the fixed firmware's survey frame as the ground station received it (R, 25) uint8 (None: float filter)
-    frame: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class ChainRun:
-    nodes: tuple[NodeRun, ...]
-    motion: ChainMotion
-    surveys: tuple[GroundSurvey, ...]
-    rotation_end_s: float
-    lost_packets: np.ndarray  # (R,) over all links
-    simpy_events: int
-    moving_average_points: int
-    hops: tuple[HopChannel, ...] = ()
-    down_links: tuple[Link, ...] = ()  # index h: hop h (0 = surface to the top node)
-    up_links: tuple[Link, ...] = ()
-    skip_links: tuple[Link, ...] = ()  # fallback links that carried frames
-    radio_energy_j: np.ndarray | None = None  # (N, R) per node
-    engine: str = "event"  # which engine ran it: "event" (SimPy) or "compiled" (same numbers)
-
-
 class Network:
     """The SimPy world of one run (built by :func:`simulate_chain`)."""
 
-    def __init__(self, scenario: Scenario):
+    def __init__(self, scenario: Scenario, attach_signals: bool = True):
         self.scenario = scenario
         self.env = simpy.Environment()
         self.events = 0
@@ -186,11 +121,8 @@ class Network:
         schedule = schedule_of(scenario)
         self.nodes: list[ChainNode] = []
         ticks = [self._tick_times(i) for i in range(c.nodes)]
-        shared_truth(scenario, self.motion, self.dt_s)  # the lab's per-sample truth, built once before the threads
-        motion, dt = self.motion, self.dt_s  # a worker thread may hold the task a moment after it ran: not self
-        signals = threads.map_nodes(lambda i: node_signals(scenario, motion, streams, i, ticks[i], dt), c.nodes, R)
-        for i, (t, sig) in enumerate(zip(ticks, signals)):
-            node = ChainNode(self, i + 1, self.motion.timelines[i], sig, schedule.mask(t, self.dt_s))
+        for i, t in enumerate(ticks):
+            node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)
             node.radio = RadioState(R, mac.queue_length)
             node.fallback = faults.Fallback.new(scenario, skips[i + 1] if i + 1 < c.nodes else None, R)
@@ -198,6 +130,23 @@ class Network:
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
         self._survey_hops: list[list] = []
+        if attach_signals:
+            self.attach_signals(range(c.nodes))
+
+    def attach_signals(self, indices) -> None:
+        """Sensor readings (:func:`nodesim.chain.sensing.node_signals`) and per-tick records of the nodes ``indices``
+        (0-based), on threads (:func:`nodesim.threads.map_nodes`): every node at once for the SimPy engine, a few
+        nodes ahead of phase 2 for the compiled engine."""
+        todo = [i for i in indices if self.nodes[i].sig is None]
+        if not todo:
+            return
+        scenario, motion, streams, dt = self.scenario, self.motion, self._streams, self.dt_s  # not self in the task:
+        shared_truth(scenario, motion, dt)  # the shared per-sample truth, built once before the threads
+        nodes = self.nodes  # (the nodes refer to the network weakly)
+        signals = threads.map_nodes(lambda j: node_signals(scenario, motion, streams, todo[j], nodes[todo[j]].t_s, dt),
+                                    len(todo), self.R)
+        for i, sig in zip(todo, signals):
+            self.nodes[i].attach(sig)
 
     def _tick_times(self, i: int) -> np.ndarray:
         """Node index ``i``'s true tick times: its clock, its clock steps, from its insertion on (a node not yet in
@@ -301,10 +250,12 @@ class Network:
         self.ground.append(GroundSurvey(packet.lost_where(np.isnan(arrival_s)), arrival_s))
         self._survey_hops.append(hops)
 
-    def run(self, progress: Callable[[float], None] | None = None, steps: int = 200) -> ChainRun:
+    def run(self, progress: Callable[[float], None] | None = None, steps: int = 200,
+            on_node: Callable | None = None) -> ChainRun:
         """Run the world to the end.  With ``progress``, the run stops at ``steps`` evenly spaced simulated
         times to report the fraction done; stopping and resuming SimPy does not reorder any event, so the
-        results are identical with or without a callback."""
+        results are identical with or without a callback.  ``on_node``: a streamed run
+        (:func:`nodesim.chain.compiled.engine.simulate_compiled`), node by node after the run."""
         for node in self.nodes:
             self.env.process(node.process())
         if progress is not None:
@@ -315,43 +266,69 @@ class Network:
         self.env.run()
         if progress is not None:
             progress(1.0)
-        return self.result()
+        if on_node is None:
+            return self.result()
+        surveys, summaries = list(self.ground), []  # every node's records exist until here: streamed after the run
+        for n in range(self.n_nodes):
+            summaries.append(self.stream_node(n, on_node, surveys))
+            self.nodes[n].release()
+        return self.result(runs=(), surveys=surveys, summaries=tuple(summaries))
 
-    def _survey_frames(self, runs) -> list[GroundSurvey]:
-        """The fixed firmware's surveys as 25-byte survey frames (:func:`nodesim.chain.packets.survey_frame`) from
-        the surveying node's I and A words at the survey tick, relayed hop by hop (each hop's undetected bit
-        errors, :meth:`nodesim.chain.mac.Link.received`, stay in the bytes), as the ground station got them.
-        Made after the run: the moving-averaged survey words are resolved from the node's records."""
-        out = []
-        for g, hops in zip(self.ground, self._survey_hops):
-            p = g.packet
-            node, run = self.nodes[p.node_id - 1], runs[p.node_id - 1]
-            if getattr(node, "survey_raw", None) is None:
-                out.append(g)
-                continue
-            first, inc_raw, azi_raw = node.survey_raw
-            k = p.tick - first
-            sig_i, sig_a = survey_sigmas_rad(run.accel_sigma_m_s2, self.scenario.filter.moving_average_points,
-                                             run.true_inclination_rad[p.tick], run.yaw_var_rad2[:, p.tick])
-            frame = survey_frame(p.station, p.node_id, int(timer_us(p.t_s)), inc_raw[:, k], azi_raw[:, k], sig_i,
-                                 sig_a)
-            for link, tr in hops:
-                frame = link.received(frame, tr)
-            out.append(GroundSurvey(p, g.arrival_s, frame))
-        return out
+    def survey_frame(self, i: int, run: NodeRun) -> GroundSurvey:
+        """Survey ``i`` (of :attr:`ground`, in send order) as the ground station got it: the fixed firmware's as a
+        25-byte survey frame (:func:`nodesim.chain.packets.survey_frame`) from the surveying node's I and A words at
+        the survey tick, relayed hop by hop (each hop's undetected bit errors, :meth:`nodesim.chain.mac.Link.received`,
+        stay in the bytes); the float filter's as sent.  Made from the surveying node's records (``run``, its
+        :class:`NodeRun`): the moving-averaged survey words are resolved from them."""
+        g, hops = self.ground[i], self._survey_hops[i]
+        p = g.packet
+        node = self.nodes[p.node_id - 1]
+        if getattr(node, "survey_raw", None) is None:
+            return g
+        first, inc_raw, azi_raw = node.survey_raw
+        k = p.tick - first
+        sig_i, sig_a = survey_sigmas_rad(run.accel_sigma_m_s2, self.scenario.filter.moving_average_points,
+                                         run.true_inclination_rad[p.tick], run.yaw_var_rad2[:, p.tick])
+        frame = survey_frame(p.station, p.node_id, int(timer_us(p.t_s)), inc_raw[:, k], azi_raw[:, k], sig_i, sig_a)
+        for link, tr in hops:
+            frame = link.received(frame, tr)
+        return GroundSurvey(p, g.arrival_s, frame)
 
-    def result(self) -> ChainRun:
-        """The run's records (after :meth:`run`, or after the compiled engine filled them in)."""
+    def surveys_of(self, index: int) -> list[int]:
+        """The indices in :attr:`ground` of the surveys node index ``index`` (0-based) sent."""
+        return [i for i, g in enumerate(self.ground) if g.packet.node_id == index + 1]
+
+    def stream_node(self, index: int, on_node: Callable, surveys: list[GroundSurvey]):
+        """A streamed run's step for node index ``index`` once its records are complete: its :class:`NodeRun`, its
+        surveys as the ground station got them (set in ``surveys``, the run's list in :attr:`ground` order), and
+        ``on_node(run, its surveys)``, whose value it returns (the node's summary)."""
+        run = self.node_run(index)
+        mine = self.surveys_of(index)
+        for i in mine:
+            surveys[i] = self.survey_frame(i, run)
+        return on_node(run, [surveys[i] for i in mine])
+
+    def node_run(self, index: int) -> NodeRun:
+        """Node index ``index``'s records as a :class:`NodeRun` (after its last tick)."""
+        return _node_run(self.nodes[index], self.scenario.filter.moving_average_points)
+
+    def result(self, runs: tuple[NodeRun, ...] | None = None, surveys: list[GroundSurvey] | None = None,
+               summaries: tuple = ()) -> ChainRun:
+        """The run's records (after :meth:`run`, or after the compiled engine filled them in).  A streamed run
+        passes its surveys (made node by node, :meth:`survey_frame`) and its nodes' summaries, and no records
+        (``runs = ()``)."""
         points = self.scenario.filter.moving_average_points
-        nodes = self.nodes  # (not self in the task: the nodes refer to the network weakly)
-        runs = tuple(threads.map_nodes(lambda i: _node_run(nodes[i], points), self.n_nodes, self.R))
+        if runs is None:
+            nodes = self.nodes  # (not self in the task: the nodes refer to the network weakly)
+            runs = tuple(threads.map_nodes(lambda i: _node_run(nodes[i], points), self.n_nodes, self.R))
+            surveys = [self.survey_frame(i, runs[g.packet.node_id - 1]) for i, g in enumerate(self.ground)]
         skips = tuple(s for links in (self._skip_links, self._up_skip_links) for _, s in sorted(links.items())
                       if s.stats.frames.any())
         lost = sum(link.stats.lost for link in self.down_links + self.up_links + list(skips))
         return ChainRun(
             nodes=runs,
             motion=self.motion,
-            surveys=tuple(self._survey_frames(runs)),
+            surveys=tuple(surveys),
             rotation_end_s=self.motion.rotation_end_s,
             lost_packets=lost,
             simpy_events=self.events,
@@ -362,6 +339,7 @@ class Network:
             skip_links=skips,
             radio_energy_j=np.stack([radio_energy_j(n.radio, self.scenario.mac) for n in self.nodes]),
             engine=self.engine,
+            summaries=tuple(summaries),
         )
 
 
@@ -439,13 +417,16 @@ def _overflows(node) -> dict:
     return dict(node.kf.overflow_counts) if node.kf is not None else {}
 
 
-def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None = None) -> ChainRun:
+def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None = None,
+                   on_node: Callable | None = None) -> ChainRun:
     """Run ``scenario``: R realizations of the encoder-aided chain (a single node is a chain of one), on the
     engine ``simulation.engine`` names (``auto``: the compiled engine where it covers the scenario, else the
-    SimPy event engine; both give the same numbers).  ``progress(fraction)`` is called as the run advances."""
+    SimPy event engine; both give the same numbers).  ``progress(fraction)`` is called as the run advances.
+    ``on_node(run, surveys)`` streams the run (:mod:`nodesim.chain.streaming`): called with each node's records as
+    they are complete, what it returns becomes the node's summary and the ChainRun keeps no per-tick records."""
     from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
 
     require_engine_filter(scenario)  # filter.states = 6 is not run by either engine yet (issue 24)
     if choose_engine(scenario) == "compiled":
-        return simulate_compiled(Network(scenario), progress)
-    return Network(scenario).run(progress)
+        return simulate_compiled(Network(scenario, attach_signals=False), progress, on_node)
+    return Network(scenario).run(progress, on_node=on_node)

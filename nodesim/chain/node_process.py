@@ -78,32 +78,45 @@ class ChainWorld(Protocol):
 class ChainNode:
     """Node ``node_id`` (1 = top of the final chain) and its per-tick records."""
 
-    def __init__(self, net: ChainWorld, node_id: int, timeline: NodeTimeline, signals: NodeSignals,
-                 scheduled: np.ndarray):
+    def __init__(self, net: ChainWorld, node_id: int, timeline: NodeTimeline, t_s: np.ndarray,
+                 scheduled: np.ndarray, signals: NodeSignals | None = None):
         # a weak reference: the network holds its nodes, and a node -> network cycle would keep every R-sized array
         # of a run alive until Python's cyclic collector ran (which counts objects, not bytes)
         self.net = weakref.proxy(net)
         self.node_id = node_id
         self.index = node_id - 1
         self.timeline = timeline
-        self.sig = signals
+        self.t_s = t_s  # (K,) true tick times
         self.scheduled = scheduled  # (K,) encoder schedule evaluated at this node's ticks
-        R, K = signals.gyro_rad_s.shape
-        self.inbox: list[EstimatePacket] = []
-        self.last_seq = np.full(R, -1, dtype=np.int64)
         self.dead_at_s = np.inf
         self.radio = None  # mac.RadioState, set by the network
         self.fallback = None  # faults.Fallback, set by the network
         self.ready_s = 0.0  # when this tick's estimate is ready to send (scalar or (R,))
         self.kf = None
         self.fixed = net.scenario.filter.implementation == "fixed"  # the integer firmware pipeline
+        self.first_tick = int(np.searchsorted(t_s, timeline.present_from_s))  # power-up: the frames' seq 0
+        self.stops = [s for s in net.motion.stops if s.node_id == node_id]
+        self.surveyed: set[tuple[int, int]] = set()  # (station, node id) of the surveys it sent
+        self.opportunity = False  # a reference reached this tick (in any realization): the wave moves on
+        self.sig = None
+        if signals is not None:
+            self.attach(signals)
+
+    def attach(self, signals: NodeSignals) -> None:
+        """The node's sensor readings and its per-tick records (R, K): the SimPy engine attaches every node's at
+        once; the compiled engine can attach them node by node as its phase 2 reaches the node
+        (:meth:`release` drops them again)."""
+        R, K = signals.gyro_rad_s.shape
+        net = self.net
+        self.sig = signals
+        self.inbox: list[EstimatePacket] = []
+        self.last_seq = np.full(R, -1, dtype=np.int64)
         self.fw = FirmwareLanes(firmware_config(net.scenario), R) if self.fixed else None
         # the fixed firmware's binary angle and P_yy raws per tick (the survey and the frames use them)
         self.yaw_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         self.var_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         # the estimate frames it sent, (R, K, 27) uint8, all zero where it sent none (type byte 0)
         self.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), dtype=np.uint8) if self.fixed else None
-        self.first_tick = int(np.searchsorted(signals.t_s, timeline.present_from_s))  # power-up: the frames' seq 0
         self.bias_sum = np.zeros(R)
         self.bias_n = 0
         self.stale = np.zeros(R, dtype=np.int64)
@@ -116,16 +129,20 @@ class ChainNode:
         self.ref_yaw = np.full((R, K), np.nan)  # the reference each update used (replay logs record it)
         self.ref_var = np.full((R, K), np.nan)
         self.running = np.zeros(K, dtype=bool)  # filter running and not holding
-        self.stops = [s for s in net.motion.stops if s.node_id == node_id]
-        self.surveyed: set[tuple[int, int]] = set()  # (station, node id) of the surveys it sent
-        self.opportunity = False  # a reference reached this tick (in any realization): the wave moves on
+
+    def release(self) -> None:
+        """Drop the sensor readings and the per-tick records (a streamed run, once the node's results are out and
+        the nodes below no longer read its estimates)."""
+        for name in ("sig", "fw", "yaw_raw", "var_raw", "frames", "yaw", "var", "bias", "applied", "age", "ref_yaw",
+                     "ref_var", "running", "kf", "survey_raw"):
+            setattr(self, name, None)
 
     def deliver(self, packet: EstimatePacket) -> None:
         self.inbox.append(packet)
 
     def process(self):
         env, sig, tl = self.net.env, self.sig, self.timeline
-        for k, t in enumerate(sig.t_s):
+        for k, t in enumerate(self.t_s):
             if t >= self.dead_at_s:
                 return
             yield env.timeout(t - env.now)

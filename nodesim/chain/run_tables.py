@@ -24,7 +24,7 @@ import numpy as np
 
 from nodesim.chain.linkmetrics import hop_table
 from firmware_model import node_survey as survey
-from nodesim.chain.network import ChainRun
+from nodesim.chain.records import ChainRun
 from nodesim.chain.packets import decode_survey, survey_sigmas_rad
 from nodesim.scenario.output_section import OutputSection
 from nodesim.units import rad_to_deg, wrap_pi
@@ -34,55 +34,63 @@ TIMESERIES_COLUMNS = ("node", "t_s", "running", "update", "update_age_s", "true_
                       "bias_est_deg_s", "inclination_deg", "azimuth_deg")
 
 
+def node_timeseries(node, r: int = 0, step: int = 1) -> dict[str, np.ndarray]:
+    """Realization ``r``'s per-tick records of one node (:class:`~nodesim.chain.records.NodeRun`), every
+    ``step``-th tick: its rows of the timeseries table."""
+    part = {
+        "node": np.full(node.t_s.size, node.node_id),
+        "t_s": node.t_s,
+        "running": node.running.astype(int),
+        "update": node.update_mask[r].astype(int),
+        "update_age_s": node.update_age_s[r],
+        "true_yaw_deg": rad_to_deg(node.true_yaw_rad),
+        "true_inclination_deg": rad_to_deg(node.true_inclination_rad),
+        "true_azimuth_deg": rad_to_deg(node.true_azimuth_rad),
+        "yaw_est_deg": rad_to_deg(node.yaw_est_rad[r]),
+        "yaw_error_deg": rad_to_deg(wrap_pi(node.yaw_est_rad[r] - node.true_yaw_rad)),
+        "yaw_sigma_deg": rad_to_deg(np.sqrt(node.yaw_var_rad2[r])),
+        "bias_true_deg_s": rad_to_deg(node.true_bias_rad_s[r]),
+        "bias_est_deg_s": rad_to_deg(node.bias_est_rad_s[r]),
+        "inclination_deg": rad_to_deg(node.inclination_rad[r]),
+        "azimuth_deg": rad_to_deg(node.azimuth_rad[r]),
+    }
+    return {k: np.asarray(v)[::step] for k, v in part.items()}
+
+
+def empty_timeseries() -> dict[str, np.ndarray]:
+    """The timeseries columns with no rows (``output.timeseries = "none"``)."""
+    return {k: np.zeros(0) for k in TIMESERIES_COLUMNS}
+
+
 def timeseries_columns(run: ChainRun, r: int = 0, output: OutputSection = OutputSection()) -> dict[str, np.ndarray]:
     """Realization ``r``'s per-tick records of the nodes and ticks ``output.timeseries`` keeps (one row each)."""
-    cols: dict[str, list[np.ndarray]] = {}
-    step = output.tick_step
-    for n in run.nodes:
-        if not output.keeps_node(n.node_id, len(run.nodes)):
-            continue
-        part = {
-            "node": np.full(n.t_s.size, n.node_id),
-            "t_s": n.t_s,
-            "running": n.running.astype(int),
-            "update": n.update_mask[r].astype(int),
-            "update_age_s": n.update_age_s[r],
-            "true_yaw_deg": rad_to_deg(n.true_yaw_rad),
-            "true_inclination_deg": rad_to_deg(n.true_inclination_rad),
-            "true_azimuth_deg": rad_to_deg(n.true_azimuth_rad),
-            "yaw_est_deg": rad_to_deg(n.yaw_est_rad[r]),
-            "yaw_error_deg": rad_to_deg(wrap_pi(n.yaw_est_rad[r] - n.true_yaw_rad)),
-            "yaw_sigma_deg": rad_to_deg(np.sqrt(n.yaw_var_rad2[r])),
-            "bias_true_deg_s": rad_to_deg(n.true_bias_rad_s[r]),
-            "bias_est_deg_s": rad_to_deg(n.bias_est_rad_s[r]),
-            "inclination_deg": rad_to_deg(n.inclination_rad[r]),
-            "azimuth_deg": rad_to_deg(n.azimuth_rad[r]),
-        }
-        for key, value in part.items():
-            cols.setdefault(key, []).append(np.asarray(value)[::step])
-    if not cols:  # output.timeseries = "none": the columns, no rows
-        return {k: np.zeros(0) for k in TIMESERIES_COLUMNS}
-    return {k: np.concatenate(v) for k, v in cols.items()}
+    parts = [node_timeseries(n, r, output.tick_step) for n in run.nodes if output.keeps_node(n.node_id, len(run.nodes))]
+    if not parts:  # output.timeseries = "none": the columns, no rows
+        return empty_timeseries()
+    return {k: np.concatenate([p[k] for p in parts]) for k in TIMESERIES_COLUMNS}
 
 
-def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
-    """One row per realization and received-or-lost survey."""
-    rows: dict[str, list] = {k: [] for k in (
-        "realization", "station", "md_m", "node", "t_survey_s", "arrival_s", "received", "inclination_deg",
-        "azimuth_deg", "sigma_inclination_deg", "sigma_azimuth_deg", "true_inclination_deg", "true_azimuth_deg")}
-    by_id = {n.node_id: n for n in run.nodes}
-    for g in run.surveys:
+SURVEY_COLUMNS = ("realization", "station", "md_m", "node", "t_survey_s", "arrival_s", "received", "inclination_deg",
+                  "azimuth_deg", "sigma_inclination_deg", "sigma_azimuth_deg", "true_inclination_deg",
+                  "true_azimuth_deg")
+
+
+def node_survey_rows(node, surveys, moving_average_points: int) -> dict[str, np.ndarray]:
+    """The survey-table rows of one node's ``surveys`` (the :class:`~nodesim.chain.records.GroundSurvey` it sent),
+    one per realization and survey, from its records (:class:`~nodesim.chain.records.NodeRun`) at the survey tick,
+    or as the ground station decoded them from the survey frames (the fixed firmware)."""
+    rows: dict[str, list] = {k: [] for k in SURVEY_COLUMNS}
+    for g in surveys:
         p = g.packet
-        n = by_id[p.node_id]
-        true_inc, true_azi = n.true_inclination_rad[p.tick], n.true_azimuth_rad[p.tick]
+        true_inc, true_azi = node.true_inclination_rad[p.tick], node.true_azimuth_rad[p.tick]
         if g.frame is not None:  # the fixed firmware: what the ground station decoded from the survey frames
             got = decode_survey(g.frame)
             inc, azi = survey.inclination_rad(got["inc_raw"]), survey.azimuth_rad(got["azi_raw"])
             sigma_i, sigma_a = got["sigma_i_rad"], got["sigma_a_rad"]
         else:
-            inc, azi = n.inclination_rad[:, p.tick], n.azimuth_rad[:, p.tick]
-            sigma_i, sigma_a = survey_sigmas_rad(n.accel_sigma_m_s2, run.moving_average_points, true_inc,
-                                                 n.yaw_var_rad2[:, p.tick])
+            inc, azi = node.inclination_rad[:, p.tick], node.azimuth_rad[:, p.tick]
+            sigma_i, sigma_a = survey_sigmas_rad(node.accel_sigma_m_s2, moving_average_points, true_inc,
+                                                 node.yaw_var_rad2[:, p.tick])
         sigma_i = np.broadcast_to(sigma_i, inc.shape)
         for r in range(p.valid.shape[0]):
             for key, value in (
@@ -94,9 +102,25 @@ def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
                 ("true_azimuth_deg", rad_to_deg(true_azi)),
             ):
                 rows[key].append(value)
-    order = np.lexsort((np.asarray(rows["node"]), np.asarray(rows["station"]), np.asarray(rows["realization"]))) \
-        if rows["station"] else []
-    return {k: np.asarray(v)[order] for k, v in rows.items()}
+    return {k: np.asarray(v) for k, v in rows.items()}
+
+
+def survey_columns(run: ChainRun) -> dict[str, np.ndarray]:
+    """One row per realization and received-or-lost survey (sorted by realization, station, node)."""
+    if run.nodes:
+        by_node: dict[int, list] = {}
+        for g in run.surveys:
+            by_node.setdefault(g.packet.node_id, []).append(g)
+        nodes = {n.node_id: n for n in run.nodes}
+        parts = [node_survey_rows(nodes[i], by_node[i], run.moving_average_points) for i in sorted(by_node)]
+    else:  # a streamed run: each node's rows were made before its records were dropped
+        parts = [s.survey_rows for s in run.summaries]
+    parts = [p for p in parts if p["station"].size]
+    if not parts:
+        return {k: np.asarray([]) for k in SURVEY_COLUMNS}
+    rows = {k: np.concatenate([p[k] for p in parts]) for k in SURVEY_COLUMNS}
+    order = np.lexsort((rows["node"], rows["station"], rows["realization"]))
+    return {k: v[order] for k, v in rows.items()}
 
 
 def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str, np.ndarray]:
@@ -120,11 +144,12 @@ def ground_survey_columns(table: dict[str, np.ndarray], r: int = 0) -> dict[str,
 def run_tables(run: ChainRun, per_realization: dict[str, np.ndarray],
                output: OutputSection = OutputSection()) -> dict[str, dict[str, np.ndarray]]:
     """Every table of a run directory, by name (the file's stem), in the order they are written; the timeseries
-    as ``output`` chooses."""
+    as ``output`` chooses (None in a streamed run: its rows were written as the nodes finished,
+    :mod:`nodesim.chain.streaming`)."""
     R = next(iter(per_realization.values())).size
     tables = {
         "realizations": {"realization": np.arange(R), **per_realization},
-        "timeseries": timeseries_columns(run, output=output),
+        "timeseries": timeseries_columns(run, output=output) if run.nodes or not run.summaries else None,
         "hops": hop_table(run),
     }
     if run.motion.stops:

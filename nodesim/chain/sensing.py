@@ -99,9 +99,10 @@ _LAST_TRUTH: list = [None]  # (weakref to the motion, key, SampleTruth) of the l
 
 
 def shared_truth(scenario: Scenario, motion: ChainMotion, dt_s: float) -> SampleTruth | None:
-    """The lab's per-sample truth, the same for every node (a rigid string), computed once per run on the grid of
-    every sample a tick in [0, duration] can read (nodes whose samples fall outside compute their own)."""
-    if scenario.motion.kind != "lab":
+    """The per-sample truth every node shares (:attr:`ChainMotion.shared_attitude`: the lab's rigid string, a
+    drilling string in a straight hole), computed once per run on the grid of every sample a tick in [0, duration]
+    can read (nodes whose samples fall outside compute their own); None where the nodes differ."""
+    if motion.shared_attitude is None:
         return None
     imu = ChainImu.from_scenario(scenario)
     key = (imu, dt_s, scenario.simulation.duration_s)
@@ -109,7 +110,8 @@ def shared_truth(scenario: Scenario, motion: ChainMotion, dt_s: float) -> Sample
     if last is not None and last[0]() is motion and last[1] == key:
         return last[2]
     rate = imu.sample_rate_hz
-    truth = SampleTruth(imu, motion, math.floor(-dt_s * rate) + 1, math.floor(scenario.simulation.duration_s * rate) + 1)
+    truth = SampleTruth(imu, motion, math.floor(-dt_s * rate) + 1, math.floor(scenario.simulation.duration_s * rate) + 1,
+                        shared=True)
     _LAST_TRUTH[0] = (weakref.ref(motion), key, truth)
     return truth
 

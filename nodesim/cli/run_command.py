@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import re
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 
@@ -52,9 +54,17 @@ def run(args) -> int:
     out = args.out if args.out is not None else default_run_dir(scenario.name)
     if not args.force:
         check_unused(out)  # before simulating: a used directory is refused at once
-    with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
-        result = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
-    out = result.save(out, force=args.force)
+    # the timeseries is written node by node while the run simulates, into a private directory beside the run
+    # directory that the save then renames it out of (--record needs every node's records: not streamed)
+    stage = None if args.record is not None else stream_stage(out)
+    try:
+        with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
+            result = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None,
+                                       stream_to=stage)
+        out = result.save(out, force=args.force)
+    finally:
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 
@@ -64,6 +74,14 @@ def run(args) -> int:
     else:
         print_summary(result.summary, out, every_key=args.all)
     return 0
+
+
+def stream_stage(out: Path) -> Path:
+    """A new private directory ``.<name>.stream-XXXX`` beside the run directory ``out`` (same file system: the
+    streamed table is renamed into the run directory, never copied)."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return Path(tempfile.mkdtemp(prefix=f".{out.name}.stream-", dir=out.parent))
 
 
 PER_NODE = re.compile(r"^(node|hop)(\d+)_")

@@ -44,8 +44,8 @@ def build_motion(scenario: Scenario) -> ChainMotion:
     )
     window = ((scenario.metrics.window_start_s, scenario.metrics.window_end_s),)
 
-    def attitude(_: int, t_s: np.ndarray) -> NodeAttitude:
+    def shared(t_s: np.ndarray) -> NodeAttitude:
         return NodeAttitude(profile.yaw_rad(t_s), np.full(t_s.shape, profile.inclination_rad),
                             np.full(t_s.shape, profile.azimuth_rad))
 
-    return ChainMotion(profile, attitude, timelines, (), window, profile.rotation_end_s)
+    return ChainMotion(profile, lambda _, t_s: shared(t_s), timelines, (), window, profile.rotation_end_s, shared)

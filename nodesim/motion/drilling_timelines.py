@@ -124,5 +124,38 @@ def drilling_motion(scenario: Scenario) -> ChainMotion:
     windows = tuple((max(s.t_survey_s, lo), min(s.end_s, hi)) for s in bottom_stops
                     if s.t_survey_s < hi and s.end_s > lo)  # one per station
     spin = ShiftedSpin(proc.rate_profile(), lead, lead + drills[-1].end_s)
+    present = np.array([timelines[n - k].present_from_s for k in range(n)])
+    margin_s = 2.0 / scenario.chain.firmware_rate_hz
+    shared = straight_hole_attitude(proc, spin, present - margin_s, lead + t_in)
     return ChainMotion(spin, attitude, tuple(timelines[i] for i in range(1, n + 1)), tuple(stops), windows,
-                       spin.rotation_end_s)
+                       spin.rotation_end_s, shared)
+
+
+def straight_hole_attitude(proc: DrillingProcess, spin: ShiftedSpin, first_sample_s: np.ndarray,
+                           inserted_s: np.ndarray):
+    """The attitude every node shares in a straight hole, or None (:attr:`ChainMotion.shared_attitude`).
+
+    With every wellpath station at one inclination I and azimuth A the twist Gamma is zero and a node's yaw is
+    psi_k0 + theta(t) - theta(t_k) = theta(t) (its mount is the string angle at its insertion t_k), so every node
+    reads (theta(t), I, A) from its insertion on.  Before t_k a node's truth is held at t_k; that equals theta(t) on
+    its samples as long as the string does not turn between its first sample (``first_sample_s``, per process node
+    k) and its insertion (``inserted_s``): checked here against the spin's rate segments.  Any turn there, or a
+    curved path, gives None (each node its own truth)."""
+    wp = proc.wellpath
+    if np.any(wp.inclination_rad != wp.inclination_rad[0]) or np.any(wp.azimuth_rad != wp.azimuth_rad[0]):
+        return None
+    segments = spin.profile.segments
+    if segments:
+        starts = np.array([g.start_s for g in segments]) + spin.lead_s
+        ends = np.array([g.end_s for g in segments]) + spin.lead_s
+        i = np.searchsorted(ends, first_sample_s, side="right")  # the first segment ending after the first sample
+        inside = i < ends.size
+        if np.any(starts[np.minimum(i, ends.size - 1)][inside] < inserted_s[inside]):
+            return None
+    inc, azi = float(wp.inclination_rad[0]), float(wp.azimuth_rad[0])
+
+    def shared(t_s: np.ndarray) -> NodeAttitude:
+        t = np.asarray(t_s, dtype=float)
+        return NodeAttitude(spin.yaw_rad(t), np.full(t.shape, inc), np.full(t.shape, azi))
+
+    return shared

@@ -94,6 +94,10 @@ class ChainMotion:
     stops: tuple[SurveyStop, ...]
     metric_windows: tuple[tuple[float, float], ...]  # where RMS errors are measured
     rotation_end_s: float  # end of the last rotation (bias convergence is timed from here)
+    # the attitude every node has at chain time t wherever its sensors sample (from its first sample on), when all
+    # nodes share one: the lab's rigid string, a drilling string in a straight hole (drilling_timelines); None
+    # when the nodes differ.  The sensors then compute the per-sample truth once per run, not once per node.
+    shared_attitude: Callable[[np.ndarray], NodeAttitude] | None = None
 
     def top_node_id(self, t_s: float) -> int:
         """The top node of the string at ``t_s``: the smallest id already in its tube (where surveys go up to)."""

@@ -218,14 +218,16 @@ class SampleTruth:
         sum_{first_k <= j < first_k + n_k} u_j = U[first_k + n_k] - U[first_k],   U[m] = sum_{j_lo <= j < m} u_j
 
     (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale), all in one compiled pass
-    (:func:`_sample_sums`).  One per run where every node has the same attitude (the lab's rigid string,
-    :func:`nodesim.chain.sensing.shared_truth`), else one per node."""
+    (:func:`_sample_sums`).  One per run where every node has the same attitude (``shared``: the motion's
+    :attr:`~nodesim.motion.timelines.ChainMotion.shared_attitude`, the lab's rigid string or a drilling string in a
+    straight hole, :func:`nodesim.chain.sensing.shared_truth`), else one per node (its ``attitude``)."""
 
-    def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0):
+    def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0,
+                 shared: bool = False):
         self.j_lo, self.j_hi = j_lo, j_hi
         t_j = np.arange(j_lo, j_hi, dtype=np.int64) / imu.sample_rate_hz
         rate = np.ascontiguousarray(motion.rotation.rate_rad_s(t_j), dtype=float)
-        att = motion.attitude(node_index, t_j)
+        att = motion.shared_attitude(t_j) if shared else motion.attitude(node_index, t_j)
         inc, azi, yaw = (np.ascontiguousarray(np.broadcast_to(x, t_j.shape), dtype=float)
                          for x in (att.inclination_rad, att.azimuth_rad, att.yaw_rad))
         S = t_j.size

@@ -120,7 +120,7 @@ class _Links:
             return int(math.ceil(frames * per_attempt * mean_attempts)) + 64
 
         for h in range(N):  # hop 0: the encoder requests and replies of whichever node is on top
-            self.sizes[:, h] = expected(h, 2 * asks if h == 0 else net.nodes[h - 1].sig.t_s.size)
+            self.sizes[:, h] = expected(h, 2 * asks if h == 0 else net.nodes[h - 1].t_s.size)
             if hops_up[h]:
                 self.sizes[:, 2 * N + h] = expected(2 * N + h, int(hops_up[h]))
         self.buffer = np.empty(0)
@@ -147,7 +147,7 @@ class _Links:
             keys[:, i] = (net._streams.bit_error_keys(R, i) if i < N else
                           net._streams.skip_bit_error_keys(R, i - N + 1))
             has_bytes[i] = True
-        K = max(n.sig.t_s.size for n in net.nodes)
+        K = max(n.t_s.size for n in net.nodes)
         err = (np.full((R, N, K) if on else (1, 1, 1), -1, np.int64), np.zeros((R, N, K) if on else (1, 1, 1)))
         counts = np.zeros((R, L), np.int64), np.zeros((R, L), np.int64)
         return (on, ber, per_pre, keys, has_bytes, bit_errors.zero_frame(fr.ESTIMATE), fr.ESTIMATE_LAYOUT,
@@ -363,7 +363,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     src = src_node[:, n, :K]
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
-    up = (tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
+    up = (tuple(a.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)  # per range of realizations, summed below
@@ -433,7 +433,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts,
                                   np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, codes, k_end,
                                   node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
-                                  tuple(a.sig.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
+                                  tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
                                   bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
         return counts
 
@@ -449,12 +449,23 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
                                f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
-def simulate_compiled(net, progress: Callable[[float], None] | None = None):
-    """Run the built network ``net`` on the compiled engine (module docstring) and return its ChainRun."""
-    K = np.array([n.sig.t_s.size for n in net.nodes], dtype=np.int64)
+ATTACH_AHEAD = 8
+"""Phase 2 attaches the sensor readings and records of this many nodes at a time (on threads, a node each), as it
+reaches them: a streamed run holds a few nodes' per-tick arrays, not the chain's."""
+
+
+def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_node: Callable | None = None):
+    """Run the built network ``net`` on the compiled engine (module docstring) and return its ChainRun.
+
+    ``on_node(run, surveys)``, when given, streams the run: it is called with each node's records (a
+    :class:`~nodesim.chain.records.NodeRun`, top node first) and the surveys it sent as the ground station got
+    them, as soon as phase 2 has finished the node; what it returns is kept as the node's summary
+    (:class:`~nodesim.chain.records.NodeSummary`) and the node's arrays are dropped once the nodes below no longer
+    read them (two nodes later: the fallback reads the next-but-one).  The ChainRun then has no ``nodes``."""
+    K = np.array([n.t_s.size for n in net.nodes], dtype=np.int64)
     T = np.full((int(K.max()), net.n_nodes), np.inf)  # tick-major: events in time order touch neighbouring memory
     for i, node in enumerate(net.nodes):
-        T[:K[i], i] = node.sig.t_s
+        T[:K[i], i] = node.t_s
     plan = tp.tick_plan(net.nodes, int(K.max()))
     survey_plan = _survey_plan(net, T, plan)
     links = _Links(net, _hops_up(net.n_nodes, survey_plan[0], survey_plan[4]), int((plan == tp.ASK).sum()))
@@ -467,11 +478,23 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None):
     _ground_surveys(net, survey_plan[0], arrivals)
     if progress is not None:
         progress(0.5)  # phase 1 done; phase 2 reports node by node
-    for n in range(net.n_nodes):
+    N = net.n_nodes
+    surveys, summaries = list(net.ground), []
+    for n in range(N):
+        if net.nodes[n].sig is None:
+            net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)))
         _run_node(net, n, out, links.bits, plan[:K[n], n])
+        if on_node is not None:
+            summaries.append(net.stream_node(n, on_node, surveys))
+            if n >= 2:
+                net.nodes[n - 2].release()
         if progress is not None:
-            progress(0.5 + 0.5 * (n + 1) / net.n_nodes)
-    return net.result()
+            progress(0.5 + 0.5 * (n + 1) / N)
+    if on_node is None:
+        return net.result()
+    for node in net.nodes[-2:]:
+        node.release()
+    return net.result(runs=(), surveys=surveys, summaries=tuple(summaries))
 
 
 def _ground_surveys(net, senders: list, arrivals: tuple) -> None:
@@ -480,5 +503,5 @@ def _ground_surveys(net, senders: list, arrivals: tuple) -> None:
     arrival, event = arrivals
     for s in np.argsort(event, kind="stable"):
         n, k, stop = senders[s]
-        packet = SurveyPacket(stop.station, stop.md_m, n + 1, k, float(net.nodes[n].sig.t_s[k]), np.ones(net.R, bool))
+        packet = SurveyPacket(stop.station, stop.md_m, n + 1, k, float(net.nodes[n].t_s[k]), np.ones(net.R, bool))
         net.received_survey(packet, arrival[:, s].copy(), [])  # no bit errors on these hops (``unsupported``)

@@ -43,6 +43,6 @@ def tick_plan(nodes, Kmax: int) -> np.ndarray:
     """(Kmax, N) int8 codes of every node (tick-major, as phase 1 walks the events), ``ABSENT`` past a node's end."""
     plan = np.full((Kmax, len(nodes)), ABSENT, dtype=np.int8)
     for n, node in enumerate(nodes):
-        t = node.sig.t_s
+        t = node.t_s
         plan[:t.size, n] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
     return plan

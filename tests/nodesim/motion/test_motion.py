@@ -292,3 +292,35 @@ def test_attitude_along_is_the_minimum_curvature_attitude_within_its_bound(rows,
     assert np.abs(inc - inc2).max() < bound_rad
     assert np.abs(np.sin(inc) * np.angle(np.exp(1j * (azi - azi2)))).max() < bound_rad
     assert np.all((azi2 >= 0.0) & (azi2 < 2.0 * np.pi))
+
+
+def _field_drilling(**overrides):
+    from importlib import resources
+
+    from nodesim.scenario.schema import load_scenario
+
+    with resources.as_file(resources.files("scenarios") / "field" / "drilling_10_tubes.toml") as p:
+        scenario, _ = load_scenario(p)
+    return scenario.with_overrides(**overrides)
+
+
+def test_a_straight_hole_shares_one_attitude_a_curved_one_or_a_turn_before_insertion_does_not():
+    """ChainMotion.shared_attitude (drilling_timelines.straight_hole_attitude): in a straight hole every node's truth,
+    from its first sensor sample on (two ticks before it is powered), is (theta(t), I, A) up to rounding; the field scenario's
+    curved wellpath, or a survey stop shorter than the margin (the string still turning at the next node's first
+    samples), gives None."""
+    from nodesim.motion.chain_motion import build_motion
+
+    straight = _field_drilling(**{"motion.wellpath": [[0.0, 5.0, 120.0], [22.0, 5.0, 120.0]]})
+    motion = build_motion(straight)
+    assert motion.shared_attitude is not None
+    margin_s = 2.0 / straight.chain.firmware_rate_hz
+    for i, tl in enumerate(motion.timelines):
+        t = np.linspace(tl.present_from_s - margin_s, straight.simulation.duration_s, 4001)
+        own, shared = motion.attitude(i, t), motion.shared_attitude(t)
+        for key in ("yaw_rad", "inclination_rad", "azimuth_rad"):  # the same up to rounding (the slerp's, the mount's)
+            assert np.allclose(getattr(own, key), getattr(shared, key), rtol=0.0, atol=1e-12), (i, key)
+        assert np.all(shared.inclination_rad == 5.0 * DEG)
+    assert build_motion(_field_drilling()).shared_attitude is None  # the scenario's build section
+    short_stop = straight.with_overrides(**{"motion.survey_stop_s": 0.5, "motion.survey_settle_s": 0.25})
+    assert build_motion(short_stop).shared_attitude is None

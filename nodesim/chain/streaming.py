@@ -1,0 +1,122 @@
+"""A streamed run: each node's per-tick records turned into its outputs as soon as the engine has finished the node,
+then dropped, so a run holds a few nodes' records instead of the chain's (issue 20).
+
+The engines call a :class:`NodeStream` with each node's :class:`~nodesim.chain.records.NodeRun` (top node first) and
+the surveys it sent (:func:`nodesim.chain.network.simulate_chain` ``on_node``).  It
+
+  - writes the node's rows of the timeseries table (those ``[output] timeseries`` keeps) to the file, one Parquet
+    row group (zstd) or a block of CSV rows per node (:class:`TimeseriesFile`): the same table, row for row, as
+    the whole-run :func:`nodesim.chain.run_tables.timeseries_columns`;
+  - keeps the node's trace for the yaw figure (:func:`nodesim.chain.yaw_plot.node_trace`);
+  - returns what the node leaves (:class:`~nodesim.chain.records.NodeSummary`): its metrics
+    (:func:`nodesim.chain.metrics.node_metrics`, the accumulators that need its per-tick data) and its survey rows
+    (:func:`nodesim.chain.run_tables.node_survey_rows`).
+The phase-1 records of the compiled engine (which estimate reaches which tick) and the shared sensor truth still
+scale with the run's node-ticks; the records of phase 2, the sensors' readings and the tables do not.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from nodesim.chain.metrics import node_metrics
+from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
+from nodesim.chain.run_tables import TIMESERIES_COLUMNS, empty_timeseries, node_timeseries, node_survey_rows
+from nodesim.chain.yaw_plot import NodeTrace, node_trace
+from nodesim.io.rundir import file_mode
+from nodesim.motion.timelines import ChainMotion
+from nodesim.scenario.schema import Scenario
+
+
+class TimeseriesFile:
+    """The timeseries table written block by block to ``path`` (``fmt`` "parquet": a row group per block, zstd;
+    "csv": the rows of :func:`nodesim.io.rundir.write_csv`), through a temporary file in the same directory that
+    :meth:`close` renames into place (:meth:`abort` deletes it: a failed run leaves no partial table)."""
+
+    def __init__(self, path: Path, fmt: str):
+        self.path, self.fmt = Path(path), fmt
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
+        os.close(fd)
+        self._tmp = Path(tmp)
+        self._writer = None
+        self._csv = None
+        self.rows = 0
+
+    def write(self, columns: dict[str, np.ndarray]) -> None:
+        """Append one block of rows (the columns of :data:`~nodesim.chain.run_tables.TIMESERIES_COLUMNS`)."""
+        if self.fmt == "parquet":
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            table = pa.table({k: np.asarray(columns[k]) for k in TIMESERIES_COLUMNS})
+            if self._writer is None:
+                self._writer = pq.ParquetWriter(self._tmp, table.schema, compression="zstd")
+            self._writer.write_table(table)
+        else:
+            if self._csv is None:
+                self._csv = open(self._tmp, "w", newline="")
+                csv.writer(self._csv, lineterminator="\n").writerow(TIMESERIES_COLUMNS)
+            buf = io.StringIO()
+            csv.writer(buf, lineterminator="\n").writerows(zip(*(np.asarray(columns[k]).tolist()
+                                                                 for k in TIMESERIES_COLUMNS)))
+            self._csv.write(buf.getvalue())
+        self.rows += len(columns["node"])
+
+    def close(self) -> Path:
+        """Finish the file and rename it into place (a table without rows when no block was written)."""
+        if self.fmt == "parquet":
+            if self._writer is None:
+                self.write(empty_timeseries())
+            self._writer.close()
+        else:
+            if self._csv is None:
+                self.write(empty_timeseries())
+            self._csv.flush()
+            os.fsync(self._csv.fileno())
+            self._csv.close()
+        os.chmod(self._tmp, file_mode())
+        os.replace(self._tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        for handle in (self._writer, self._csv):
+            try:
+                if handle is not None:
+                    handle.close()
+            except Exception:  # noqa: BLE001 - the file is deleted anyway
+                pass
+        if self._tmp.exists():
+            self._tmp.unlink()
+
+
+class NodeStream:
+    """The ``on_node`` of a streamed run (module docstring): writes each node's timeseries rows to ``table``
+    (None: none written), keeps its yaw-figure trace in :attr:`traces`, returns its summary."""
+
+    def __init__(self, scenario: Scenario, motion: ChainMotion, table: TimeseriesFile | None):
+        self.scenario, self.motion, self.table = scenario, motion, table
+        self.traces: list[NodeTrace] = []
+
+    def __call__(self, run: NodeRun, surveys: list[GroundSurvey]) -> NodeSummary:
+        s = self.scenario
+        if s.output.keeps_node(run.node_id, s.chain.nodes):
+            rows = node_timeseries(run, 0, s.output.tick_step)
+            if self.table is not None:
+                self.table.write(rows)
+            self.traces.append(node_trace(rows))
+        return NodeSummary(
+            node_id=run.node_id,
+            metrics=node_metrics(self.motion, run, s.metrics),
+            survey_rows=node_survey_rows(run, surveys, s.filter.moving_average_points),
+            stale_packets=run.stale_packets,
+            duplicate_packets=run.duplicate_packets,
+            firmware_overflows=run.firmware_overflows,
+            adc_clipped_samples=run.adc_clipped_samples,
+        )
