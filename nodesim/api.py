@@ -261,11 +261,13 @@ class Run:
         return out
 
     def _write(self, out: Path, plots: bool, t0: float) -> None:
+        from nodesim.chain.streaming import PARQUET_OPTIONS
+
         for name, columns in self._tables.items():
             if name == "timeseries" and self._streamed is not None:
                 self._place_streamed(out)
             elif name == "timeseries" and self.scenario.output.format == "parquet":
-                write_parquet(out / "timeseries.parquet", columns, compression="zstd")
+                write_parquet(out / "timeseries.parquet", columns, **PARQUET_OPTIONS)
             else:
                 write_csv(out / f"{name}.csv", columns)
         rows = bool(self._streamed[1]) if self._streamed else self._tables["timeseries"]["node"].size > 0

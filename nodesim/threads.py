@@ -94,11 +94,18 @@ def map_nodes(work: Callable[[int], T], nodes: int, realizations: int) -> list[T
     the realizations are too few for :func:`map_chunks` to split (a single-realization run), else in this thread
     (each node's work then splits its realizations).  Nodes must be independent (their own draws and records):
     the results are the same bits either way."""
+    return map_nodes_later(work, nodes, realizations)()
+
+
+def map_nodes_later(work: Callable[[int], T], nodes: int, realizations: int) -> Callable[[], list[T]]:
+    """:func:`map_nodes` started now, its results when the returned function is called: the worker threads start
+    on the nodes at once (this thread goes on meanwhile); where :func:`map_nodes` would work in this thread, the
+    work is done at that call."""
     workers = thread_count()
     if workers == 1 or nodes < 2 or len(chunks(realizations, workers)) > 1:
-        return [work(i) for i in range(nodes)]
+        return lambda: [work(i) for i in range(nodes)]
     futures = [_executor(workers).submit(work, i) for i in range(nodes)]
-    return [f.result() for f in futures]
+    return lambda: [f.result() for f in futures]
 
 
 def map_chunks(kernel: Callable[[int, int], T], realizations: int) -> list[T]:

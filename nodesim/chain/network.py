@@ -130,23 +130,35 @@ class Network:
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
         self._survey_hops: list[list] = []
+        self._prefetched = None  # (node indices, their readings when called): attach_signals' ``ahead``
         if attach_signals:
             self.attach_signals(range(c.nodes))
 
-    def attach_signals(self, indices) -> None:
+    def attach_signals(self, indices, ahead=()) -> None:
         """Sensor readings (:func:`nodesim.chain.sensing.node_signals`) and per-tick records of the nodes ``indices``
         (0-based), on threads (:func:`nodesim.threads.map_nodes`): every node at once for the SimPy engine, a few
-        nodes ahead of phase 2 for the compiled engine."""
+        nodes ahead of phase 2 for the compiled engine, which also names the nodes it will need next (``ahead``):
+        their readings are computed on the worker threads while it runs the nodes before them (each node's
+        readings are its own draws: the same bits whenever they are computed)."""
+        batch = self._prefetched
+        if batch is not None and batch[0] and batch[0][0] in indices:
+            self._prefetched = None
+            for i, sig in zip(batch[0], batch[1]()):
+                self.nodes[i].attach(sig)
         todo = [i for i in indices if self.nodes[i].sig is None]
-        if not todo:
-            return
+        if todo:
+            for i, sig in zip(todo, self._signals_later(todo)()):
+                self.nodes[i].attach(sig)
+        later = [i for i in ahead if self.nodes[i].sig is None]
+        if later:
+            self._prefetched = (later, self._signals_later(later))
+
+    def _signals_later(self, todo: list[int]):
         scenario, motion, streams, dt = self.scenario, self.motion, self._streams, self.dt_s  # not self in the task:
         shared_truth(scenario, motion, dt)  # the shared per-sample truth, built once before the threads
         nodes = self.nodes  # (the nodes refer to the network weakly)
-        signals = threads.map_nodes(lambda j: node_signals(scenario, motion, streams, todo[j], nodes[todo[j]].t_s, dt),
-                                    len(todo), self.R)
-        for i, sig in zip(todo, signals):
-            self.nodes[i].attach(sig)
+        return threads.map_nodes_later(
+            lambda j: node_signals(scenario, motion, streams, todo[j], nodes[todo[j]].t_s, dt), len(todo), self.R)
 
     def _tick_times(self, i: int) -> np.ndarray:
         """Node index ``i``'s true tick times: its clock, its clock steps, from its insertion on (a node not yet in

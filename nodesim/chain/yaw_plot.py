@@ -50,7 +50,9 @@ def node_trace(rows: Mapping[str, np.ndarray], max_points: int = TRACE_POINTS) -
         pad = (-K) % b
         blocks = np.concatenate([key, np.full(pad, key[-1])]).reshape(-1, b)
         lo, hi = starts + blocks.argmin(axis=1), starts + blocks.argmax(axis=1)
-        keep = np.unique(np.concatenate([np.minimum(lo, K - 1), np.minimum(hi, K - 1)]))
+        keep = np.zeros(K, dtype=bool)
+        keep[np.minimum(lo, K - 1)] = True
+        keep[np.minimum(hi, K - 1)] = True
         t, err, est, true = t[keep], err[keep], est[keep], true[keep]
     return NodeTrace(int(np.asarray(rows["node"])[0]), t, err, est, true)
 

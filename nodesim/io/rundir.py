@@ -208,8 +208,9 @@ def write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
     atomic_write_bytes(path, buf.getvalue().encode())
 
 
-def write_parquet(path: Path, data, compression: str = "snappy") -> None:
-    """Write a DataFrame or equal-length columns (dict of arrays) as one Parquet file, atomically."""
+def write_parquet(path: Path, data, compression: str = "snappy", **options) -> None:
+    """Write a DataFrame or equal-length columns (dict of arrays) as one Parquet file, atomically (``options``:
+    more of ``pyarrow.parquet.write_table``'s)."""
     import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -218,7 +219,7 @@ def write_parquet(path: Path, data, compression: str = "snappy") -> None:
         table = pa.table({k: np.asarray(v) for k, v in data.items()})
     else:
         table = pa.Table.from_pandas(data, preserve_index=False)
-    atomic_write_with(path, lambda p: pq.write_table(table, p, compression=compression))
+    atomic_write_with(path, lambda p: pq.write_table(table, p, compression=compression, **options))
 
 
 def read_parquet(path: Path):

@@ -450,8 +450,9 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
 
 
 ATTACH_AHEAD = 8
-"""Phase 2 attaches the sensor readings and records of this many nodes at a time (on threads, a node each), as it
-reaches them: a streamed run holds a few nodes' per-tick arrays, not the chain's."""
+"""Phase 2 attaches the sensor readings and records of this many nodes at a time as it reaches them, the readings of
+the next as many computed on the worker threads meanwhile (:meth:`Network.attach_signals`): a streamed run holds a
+few nodes' per-tick arrays, not the chain's, and its sensors run beside its filters."""
 
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_node: Callable | None = None):
@@ -482,7 +483,8 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     surveys, summaries = list(net.ground), []
     for n in range(N):
         if net.nodes[n].sig is None:
-            net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)))
+            net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)), ahead=range(n + ATTACH_AHEAD,
+                                                                               min(N, n + 2 * ATTACH_AHEAD)))
         _run_node(net, n, out, links.bits, plan[:K[n], n])
         if on_node is not None:
             summaries.append(net.stream_node(n, on_node, surveys))
