@@ -10,12 +10,21 @@ whole run on the lab profile) and, for the records that exist per realization, w
 BASE is the process with nodesim, numpy, scipy and numba loaded; b_rt the per-realization bytes of a node-tick
 (the sensor counts and their SI forms, the filter's records, the fixed firmware's words and frames; larger with
 ``filter.implementation = "fixed"``); b_t the per-node-tick tables (``timeseries``, ``[output] timeseries = "all"``)
-built and written as Parquet after the run; b_event what the SimPy engine holds per node-tick (its event records).  The constants are measured peak
-RSS of whole ``nodesim run`` processes (``os.wait4``) on this project's 2-core machine on 2026-12-03, a least-squares fit
-over ten perf-chain sizes (1-400 nodes, 60-3600 s, 1-1000 realizations, both filter implementations; every size
-within 3 % of the fit) and the SimPy engine's drilling run (``scenarios/field/drilling_10_tubes.toml``);
-tests/nodesim/chain/test_memory_budget.py checks the estimate against the measured peak on other sizes (within a
-factor of 1.5, the goal).
+built and written as Parquet after the run; b_event what the SimPy engine holds per node-tick (its event records).
+The constants are measured peak RSS of whole ``nodesim run`` processes (``os.wait4``) on this project's 2-core machine
+on 2026-12-03, a least-squares fit over ten perf-chain sizes (1-400 nodes, 60-3600 s, 1-1000 realizations, both
+filter implementations; every size within 3 % of the fit) and the SimPy engine's drilling run
+(``scenarios/field/drilling_10_tubes.toml``).
+
+A streamed run (``nodesim run`` on the compiled engine, :mod:`nodesim.chain.streaming`) holds phase 1's records
+(which estimate reaches which tick: per node-tick and per realization) and a few nodes' full records at a time:
+
+    peak ~ BASE_S + N s_n + sum_n (K_n + 1) s_t + R sum_n (K_n + 1) s_rt + W R K_max b_rt
+
+with s_n, s_t, s_rt and the window W (in nodes) fitted the same way on 2026-12-03 to ten streamed runs (10-20000
+nodes, 60-7200 s, 1-300 realizations, both implementations, the drilling day's first one and two hours; every one
+within 7 % of the fit).  tests/nodesim/chain/test_memory_budget.py checks both estimates against the measured peak
+on other sizes (within a factor of 1.5, the goal).
 """
 
 from __future__ import annotations
@@ -34,6 +43,15 @@ TICK_BYTES = 411
 """Per node-tick, independent of R: the run's tables (``timeseries``) built and written (Parquet)."""
 EVENT_ENGINE_TICK_BYTES = 2300
 """Per node-tick on the SimPy engine (drilling), beyond the compiled engine's."""
+STREAMED_BASE_BYTES = 304 * 2**20
+STREAMED_TICK_BYTES = 22
+"""A streamed run, per node-tick: tick times, plans, the event order, the shared sensor truth."""
+STREAMED_REALIZATION_TICK_BYTES = 53
+"""A streamed run, per realization and node-tick: phase 1's records and the links' buffered draws."""
+STREAMED_WINDOW_NODES = 6.6
+"""A streamed run holds about this many nodes' full records (R K_max b_rt each) at its peak."""
+STREAMED_NODE_BYTES = 38_000
+"""A streamed run, per node: its objects (node, links, channels), its summary and its keys in the run summary."""
 
 
 @dataclass(frozen=True)
@@ -52,7 +70,7 @@ class RunMemory:
 
     def __repr__(self) -> str:
         return (f"RunMemory({self.total_bytes / 1e9:.3g} GB: {self.node_ticks:,} node-ticks x {self.realizations} "
-                f"realizations {self.per_realization_bytes / 1e9:.3g} GB + tables {self.per_tick_bytes / 1e9:.3g} GB "
+                f"realizations {self.per_realization_bytes / 1e9:.3g} GB + per node-tick {self.per_tick_bytes / 1e9:.3g} GB "
                 f"+ base {self.base_bytes / 1e9:.3g} GB)")
 
 
@@ -67,32 +85,44 @@ def node_tick_counts(scenario: Scenario) -> list[int]:
     return [int(max(duration - tl.present_from_s, 0.0) * rate) + 1 for tl in build_motion(scenario).timelines]
 
 
-def estimate_run_memory(scenario: Scenario, engine: str) -> RunMemory:
-    """The peak memory of running ``scenario`` on ``engine`` ('compiled' or 'event'), module docstring."""
+def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False) -> RunMemory:
+    """The peak memory of running ``scenario`` on ``engine`` ('compiled' or 'event'), streamed (``nodesim run``; the
+    SimPy engine streams only after its run, so it holds every record anyway) or not, module docstring."""
     ticks = node_tick_counts(scenario)
     node_ticks = sum(ticks)
     R = scenario.simulation.realizations
+    b_rt = REALIZATION_TICK_BYTES[scenario.filter.implementation]
+    if streamed and engine == "compiled":
+        window = int(STREAMED_WINDOW_NODES * R * max(ticks) * b_rt)
+        return RunMemory(STREAMED_BASE_BYTES + len(ticks) * STREAMED_NODE_BYTES,
+                         R * node_ticks * STREAMED_REALIZATION_TICK_BYTES + window, node_ticks * STREAMED_TICK_BYTES,
+                         node_ticks, R)
     out, n = scenario.output, scenario.chain.nodes
     kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
     tables = kept * TICK_BYTES + (node_ticks * EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
-    return RunMemory(BASE_BYTES, R * node_ticks * REALIZATION_TICK_BYTES[scenario.filter.implementation],
-                     tables, node_ticks, R)
+    return RunMemory(BASE_BYTES, R * node_ticks * b_rt, tables, node_ticks, R)
 
 
 def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None,
                      streamed: bool = False) -> RunMemory:
     """The estimate, or a :class:`NodesimError` (one line: the estimate, what is available, the keys that bring it
     down, the largest part first) when it exceeds ``available_bytes`` (None: not known, not checked)."""
-    need = estimate_run_memory(scenario, engine)
+    need = estimate_run_memory(scenario, engine, streamed)
     if available_bytes is None or need.total_bytes <= available_bytes:
         return need
-    keys = ["chain.nodes", "simulation.duration_s"] + (["output.timeseries"] if scenario.output.timeseries != "none" else [])
-    if need.per_realization_bytes > need.per_tick_bytes:
+    held = scenario.output.timeseries != "none" and not (streamed and engine == "compiled")  # a table in memory
+    keys = ["chain.nodes", "simulation.duration_s"] + (["output.timeseries"] if held else [])
+    if need.realizations > 1 and need.per_realization_bytes > need.per_tick_bytes:
         keys.insert(0, "simulation.realizations")
     raise NodesimError(
-        f"this run would need about {need.total_bytes / 1e9:.3g} GB of memory ({need.node_ticks:,} node-ticks x "
+        f"this run would need about {_gb(need.total_bytes)} GB of memory ({need.node_ticks:,} node-ticks x "
         f"{need.realizations} realization{'' if need.realizations == 1 else 's'}), more than the {available_bytes / 1e9:.3g} GB available: lower "
         f"{', '.join(keys)}")
+
+
+def _gb(n_bytes: float) -> str:
+    gb = n_bytes / 1e9
+    return f"{gb:.3g}" if gb < 1000 else f"{gb:,.0f}"
 
 
 def available_memory_bytes() -> int | None:

@@ -34,8 +34,12 @@ def _run(path: Path, out: Path) -> tuple[int, str, float]:
 
 
 def test_a_string_of_100000_nodes_is_refused_at_once_with_its_estimate(tmp_path):
+    """A day of 100000 nodes (1.6e10 node-ticks: ~1 TB even streamed).  (The default 620 s of 100000 nodes needs
+    ~13 GB streamed, which a 24 GB machine has: the guard lets it pass, and the scenario is then refused for its
+    clock stagger, node ~10000 on having no tick inside the run.)"""
     toml = tmp_path / "huge.toml"
-    toml.write_text('name = "huge"\n[chain]\nnodes = 100000\n')
+    toml.write_text('name = "huge"\n[simulation]\nduration_s = 86400.0\n[chain]\nnodes = 100000\n'
+                    '[metrics]\nwindow_end_s = 86400.0\n')
     code, err, _ = _run(toml, tmp_path / "out")
     assert code == 2
     assert err.count("\n") == 0 and "GB of memory" in err and "lower chain.nodes" in err, err
@@ -66,7 +70,7 @@ def test_the_estimate_is_the_measured_peak_within_a_factor_of_1p5(tmp_path, node
     scenario = load_scenario(path)[0]
     code, err, peak = _run(path, tmp_path / "out")
     assert code == 0, err
-    estimate = estimate_run_memory(scenario, "compiled").total_bytes
+    estimate = estimate_run_memory(scenario, "compiled", streamed=True).total_bytes  # nodesim run streams
     assert 1 / 1.5 < estimate / peak < 1.5, (estimate / 2**20, peak / 2**20)
 
 
@@ -79,7 +83,7 @@ def test_the_estimate_on_the_drilling_run(tmp_path, engine):
         "[simulation]", f'[simulation]\nengine = "{engine}"'))
     code, err, peak = _run(path, tmp_path / "out")
     assert code == 0, err
-    estimate = estimate_run_memory(load_scenario(path)[0], engine).total_bytes
+    estimate = estimate_run_memory(load_scenario(path)[0], engine, streamed=True).total_bytes
     assert 1 / 1.5 < estimate / peak < 1.5, (estimate / 2**20, peak / 2**20)
 
 
@@ -100,3 +104,19 @@ def test_the_estimate_grows_with_every_size_key_and_names_the_largest_part_first
         check_run_memory(base.with_overrides(**{"chain.nodes": 100000}), "compiled", 10**9)
     assert check_run_memory(many, "compiled", None).realizations == 100000  # unknown memory: not checked
     assert check_run_memory(base, "compiled", 10**12).total_bytes == est
+
+
+def test_a_streamed_run_is_estimated_without_its_tables():
+    """Streamed (nodesim run on the compiled engine) the records and tables are not held: the estimate grows with the
+    node-ticks and realizations, not with output.timeseries, and the guard does not name that key."""
+    base = Scenario.model_validate({"chain": {"nodes": 400}, "simulation": {"duration_s": 3600.0},
+                                    "metrics": {"window_end_s": 3600.0}})
+    streamed = estimate_run_memory(base, "compiled", streamed=True)
+    assert streamed.total_bytes < estimate_run_memory(base, "compiled").total_bytes / 3
+    for key, value in (("chain.nodes", 800), ("simulation.duration_s", 7200.0), ("simulation.realizations", 3)):
+        assert estimate_run_memory(base.with_overrides(**{key: value}), "compiled", True).total_bytes > \
+            streamed.total_bytes, key
+    assert estimate_run_memory(base.with_overrides(**{"output.timeseries": "none"}), "compiled", True) == streamed
+    assert estimate_run_memory(base, "event", True) == estimate_run_memory(base, "event")  # holds its records anyway
+    with pytest.raises(NodesimError, match=r"lower chain.nodes, simulation.duration_s$"):
+        check_run_memory(base.with_overrides(**{"chain.nodes": 100000}), "compiled", 10**9, streamed=True)
