@@ -118,6 +118,19 @@ def _dot3(a0, a1, a2, work, ib, j, fa, fb, p, w, counts, site):
 
 
 @njit(cache=True, _nrt=False)
+def _phi_row_dot(work, row, x, base, stride, other, p, w, counts, site):
+    """sum_m Phi_row,m x[base + stride m] (m < 6: Phi11 then Phi12 of the top row ``row``), x_m in the format of P
+    entry (m, other), each product rounded to p[w] then summed in m order (T = Phi P and T Phi^T)."""
+    fo, ft = p[w + 1], p[W_TR + 1]
+    acc = np.int64(0)
+    for m in range(6):
+        wm = WK_PHI11 + 3 * row + m if m < 3 else WK_PHI12 + 3 * row + m - 3
+        acc = _add(acc, fo, _mul(work[wm], ft, x[base + stride * m], p[_blk(m, other) + 1], p, w, counts, site), fo,
+                   p, w, counts, site)
+    return acc
+
+
+@njit(cache=True, _nrt=False)
 def predict_raw(state, rate_raw, params, counts, work):
     """One time update (:mod:`firmware_model.six_state_fixed`, "predict"), the gyro rates (x, y, z) already raw words
     in the rate format (deg/s)."""
@@ -223,11 +236,7 @@ def predict_raw(state, rate_raw, params, counts, work):
             w = _blk(i, k)
             fo = p[w + 1]
             if i < 3:
-                acc = np.int64(0)
-                for m in range(6):
-                    wm = WK_PHI11 + 3 * i + m if m < 3 else WK_PHI12 + 3 * i + m - 3
-                    acc = _add(acc, fo, _mul(work[wm], ft, P[6 * m + k], p[_blk(m, k) + 1], p, w, counts, S_PHIP), fo,
-                               p, w, counts, S_PHIP)
+                acc = _phi_row_dot(work, i, P, k, 6, k, p, w, counts, S_PHIP)
             else:
                 c = C_F + 3 * (i - 3)
                 acc = _mul(p[c], p[c + 1], P[6 * i + k], p[_blk(i, k) + 1], p, w, counts, S_PHIP)
@@ -238,11 +247,7 @@ def predict_raw(state, rate_raw, params, counts, work):
             w = _blk(i, j)
             fo = p[w + 1]
             if j < 3:
-                acc = np.int64(0)
-                for m in range(6):
-                    wm = WK_PHI11 + 3 * j + m if m < 3 else WK_PHI12 + 3 * j + m - 3
-                    acc = _add(acc, fo, _mul(work[WK_T + 6 * i + m], p[_blk(i, m) + 1], work[wm], ft, p, w, counts,
-                                             S_PPRED), fo, p, w, counts, S_PPRED)
+                acc = _phi_row_dot(work, j, work, WK_T + 6 * i, 1, i, p, w, counts, S_PPRED)
                 for k in range(3):  # + Q_d,ij = sum_k gs_ik gs_jk
                     q = _mul(work[WK_GS + 3 * i + k], fgs, work[WK_GS + 3 * j + k], fgs, p, W_AA, counts, S_QD)
                     acc = _add(acc, fo, q, fo, p, w, counts, S_PPRED)
