@@ -156,6 +156,40 @@ def vectoring(x, y, iterations):
     return w[2, 0], w[0, 0]
 
 
+@njit(cache=True, _nrt=False)
+def sin_cos(angle, iterations):
+    """(sin, cos) of a binary angle (2^32 = one turn) in Q2.30, CORDIC in rotation mode (Volder 1959): the angle is
+    folded into [-90, 90] deg (a half turn off, both results negated), then from (x, y, z) = (K_INV[n], 0, angle)
+
+        i = 0..n-1:  z >= 0: x <- x - (y >> i), y <- y + (x >> i), z <- z - ATAN[i]
+                     z < 0:  x <- x + (y >> i), y <- y - (x >> i), z <- z + ATAN[i]
+
+    ends at (x, y) = (cos, sin) 2^30 (the gain K_n cancelled by the start value; |x|, |y| < 2^31).  Error: the
+    residual angle |z| <= atan(2^-(n-1)) plus one floor LSB per shifted term and iteration, at most
+    atan(2^-(n-1)) + (2 n + 1) 2^-30 (tests/firmware_model/test_cordic_survey.py checks it).  The C twin is
+    cordic_sin_cos (firmware_model/c/cordic.c); the 6-state fixed filter uses it for its roll and pitch."""
+    if iterations < MIN_ITERATIONS or iterations > MAX_ITERATIONS:
+        raise FirmwareError("cordic: iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
+    z = wrap32(angle)
+    flip = False
+    if z > QUARTER_TURN:
+        z -= 2 * QUARTER_TURN
+        flip = True
+    elif z < -QUARTER_TURN:
+        z += 2 * QUARTER_TURN
+        flip = True
+    x, y = K_INV[iterations], np.int64(0)
+    for i in range(iterations):
+        xs, ys = x >> i, y >> i
+        if z >= 0:
+            x, y, z = x - ys, y + xs, z - ATAN[i]
+        else:
+            x, y, z = x + ys, y - xs, z + ATAN[i]
+    if flip:
+        x, y = -x, -y
+    return y, x
+
+
 def angle_rad(raw) -> np.ndarray:
     """Binary angle(s) (2^32 = one turn) in radians: raw 2 pi / 2^32 (exact in a double)."""
     return np.ldexp(np.asarray(raw, dtype=np.int64).astype(float), -ANGLE_BITS) * (2.0 * math.pi)

@@ -1,4 +1,4 @@
-/* Integer CORDIC vectoring (firmware_model/cordic.py, bit for bit). */
+/* Integer CORDIC vectoring and rotation (firmware_model/cordic.py, bit for bit). */
 #include "cordic.h"
 #include "fixedpoint.h"
 
@@ -71,5 +71,28 @@ int32_t cordic_vectoring(int64_t x, int64_t y, int32_t iterations, int64_t *angl
     else if (s < 0) mag = (int64_t)((uint64_t)mag << -s);
     *angle = cordic_wrap32(z);
     *magnitude = mag;
+    return 0;
+}
+
+int32_t cordic_sin_cos(int64_t angle, int32_t iterations, int64_t *sin_q30, int64_t *cos_q30)
+{
+    /* cordic.sin_cos: fold into [-90, 90] deg, then rotation mode from (K_INV[n], 0, angle) */
+    const int64_t quarter = (int64_t)1 << 30;
+    int64_t z, x, y;
+    int32_t i, flip = 0;
+    if (iterations < CORDIC_MIN_ITERATIONS || iterations > CORDIC_MAX_ITERATIONS) return -1;
+    z = cordic_wrap32(angle);
+    if (z > quarter) { z -= 2 * quarter; flip = 1; }
+    else if (z < -quarter) { z += 2 * quarter; flip = 1; }
+    x = CORDIC_K_INV[iterations];
+    y = 0;
+    for (i = 0; i < iterations; i++) {
+        const int64_t xs = x >> i, ys = y >> i;
+        if (z >= 0) { x -= ys; y += xs; z -= CORDIC_ATAN[i]; }
+        else        { x += ys; y -= xs; z += CORDIC_ATAN[i]; }
+    }
+    if (flip) { x = -x; y = -y; }
+    *sin_q30 = y;
+    *cos_q30 = x;
     return 0;
 }

@@ -216,12 +216,12 @@ class FilterSection(_Section):
 
     ``states`` picks the filter: 2 (yaw, z bias: the near-vertical form, what the chain engines run) or 6 (the
     thesis's roll, pitch, yaw and three biases, eqs 3.22-3.26: firmware_model.six_state_filter, issue 24).  The
-    6-state filter exists in float only and the chain engines do not run it yet: a run with ``states = 6`` is
-    refused.  ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
+    6-state filter exists in float and in fixed point (firmware_model.six_state_fixed: "rotation" only, 32-bit
+    words) and the chain engines do not run it yet: a run with ``states = 6`` is refused.  ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
 
     states: Literal[2, 6] = Field(
         2, description="node filter states: 2 = (yaw, z-gyro bias), the near-vertical form the chain engines run; "
-        "6 = the thesis's (roll, pitch, yaw, 3 gyro biases), float only, not yet run by the chain engines (a run "
+        "6 = the thesis's (roll, pitch, yaw, 3 gyro biases), float or fixed ('rotation' only), not yet run by the chain engines (a run "
         "with 6 is refused)")
     singularity_margin_deg: float = Field(
         5.0, gt=0.0, lt=90.0, description="states = 6: how close to pitch +/-90 deg (horizontal) the Euler-rate "
@@ -258,8 +258,14 @@ class FilterSection(_Section):
     @model_validator(mode="after")
     def _six_state_settings(self) -> "FilterSection":
         if self.states == 6 and self.implementation == "fixed":
-            raise ValueError("filter.states = 6 with filter.implementation = 'fixed': the 6-state filter has no "
-                             "fixed-point implementation yet (allowed: implementation = 'float' with states = 6)")
+            if self.discretisation != "rotation":
+                raise ValueError(f"filter.discretisation = {self.discretisation!r} with filter.states = 6 and "
+                                 "filter.implementation = 'fixed': the fixed-point 6-state filter implements only "
+                                 "'rotation' (firmware_model.six_state_fixed); allowed: discretisation = 'rotation'")
+            if self.fixed_word_bits != 32:
+                raise ValueError(f"filter.fixed_word_bits = {self.fixed_word_bits} with filter.states = 6 and "
+                                 "filter.implementation = 'fixed': the fixed-point 6-state filter is built for "
+                                 "32-bit words; allowed: 32")
         if self.states == 2:
             for key in ("singularity_margin_deg", "singularity", "discretisation"):
                 value, default = getattr(self, key), type(self).model_fields[key].default

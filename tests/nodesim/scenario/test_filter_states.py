@@ -30,15 +30,18 @@ REFUSED = "the chain engines do not run the 6-state filter yet"
     ("[filter]\nstates = 6\nsingularity_margin_deg = 0.0\n", ("filter.singularity_margin_deg", "greater than 0")),
     ('[filter]\nstates = 6\nsingularity = "switch"\n', ("filter.singularity", "'hold' or 'decouple'")),
     ('[filter]\nstates = 6\ndiscretisation = "rk4"\n', ("filter.discretisation", "'rotation' or 'euler'")),
-    ('[filter]\nstates = 6\nimplementation = "fixed"\n', ("filter.states = 6", "filter.implementation = 'fixed'",
-                                                          "no fixed-point implementation yet")),
+    ('[filter]\nstates = 6\nimplementation = "fixed"\ndiscretisation = "euler"\n',
+     ("filter.discretisation = 'euler'", "filter.implementation = 'fixed'", "allowed: discretisation = 'rotation'")),
+    ('[filter]\nstates = 6\nimplementation = "fixed"\nfixed_word_bits = 16\n',
+     ("filter.fixed_word_bits = 16", "filter.states = 6", "allowed: 32")),
     ('[filter]\nsingularity = "decouple"\n', ("filter.singularity = 'decouple'", "only used with filter.states = 6")),
     ("[filter]\nsingularity_margin_deg = 3.0\n", ("filter.singularity_margin_deg", "only used with filter.states = 6")),
 ])
 def test_bad_filter_states_configurations_are_rejected_naming_the_key(write_toml, text, fragments):
     """states 3 (or a non-integer), a tuning that would make Q negative (B < 0 makes Q_bb = B 2 sigma_b^2/tau dt
     negative under b_tuning = 'process_noise' and sqrt(B) imaginary; tau <= 0 makes 2 sigma_b^2/tau negative), the
-    6-state settings out of range or without states = 6, and a fixed-point 6-state filter (none exists)."""
+    6-state settings out of range or without states = 6, and a fixed-point 6-state filter with what it does not
+    implement (the "euler" discretisation, words other than 32 bits)."""
     path = write_toml(text)
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
@@ -106,7 +109,8 @@ def test_cli_run_with_six_states_exits_2_and_writes_nothing(lab_toml, tmp_path, 
 
 
 def test_firmware_export_refuses_six_states(lab_toml, tmp_path, capsys):
-    """No C header for a build the firmware model does not have (the 6-state filter has no fixed point)."""
+    """No C header for a 6-state build: the export (firmware_model.config.FirmwareConfig) writes the 2-state
+    filter's parameters; the 6-state fixed filter's (firmware_model.six_state_fixed) are not exported yet."""
     code = main(["firmware", "export-config", str(_six_state_toml(lab_toml, tmp_path)), "-o", str(tmp_path / "node.h")])
     err = capsys.readouterr().err
     assert code == 2 and REFUSED in err
