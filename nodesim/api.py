@@ -79,7 +79,7 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
     from nodesim.chain.network import simulate_chain
     from nodesim.chain.run_tables import run_tables
 
-    require_engine_filter(scenario)  # filter.states = 6: refused before any work (issue 24)
+    require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     check_run_memory(scenario, choose_engine(scenario), available_memory_bytes())  # refuse before any work
     started = datetime.now(timezone.utc)
     t0 = time.perf_counter()

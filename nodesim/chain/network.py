@@ -445,7 +445,7 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     SimPy event engine; both give the same numbers).  ``progress(fraction)`` is called as the run advances."""
     from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
 
-    require_engine_filter(scenario)  # filter.states = 6 is not run by either engine yet (issue 24)
+    require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     if choose_engine(scenario) == "compiled":
         return simulate_compiled(Network(scenario), progress)
     return Network(scenario).run(progress)
