@@ -109,6 +109,8 @@ class NodeRun:
     # (R, 2) rad: static error of the lab's measured truth (along, across the tilt; metrics.reference_accuracy_pct,
     # nodesim.chain.sensing.reference_error_rad); None: the metrics compare with the exact geometry
     reference_error_rad: np.ndarray | None = None
+    # (R,) int64: the 6-state filter's ticks inside its singularity margin (filter.states = 6); None: 2-state filter
+    singular_ticks: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -429,6 +431,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
         estimate_frames=node.frames,
         reference_error_rad=node.sig.reference_error_rad,
+        singular_ticks=getattr(node.kf, "singular_ticks", None),
     )
 
 

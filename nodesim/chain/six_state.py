@@ -55,7 +55,7 @@ def level_attitude(force_m_s2: np.ndarray, twist_rad) -> np.ndarray:
 
 class SixStateLanes:
     """R lanes of the 6-state filter with the chain's filter interface (``predict``, ``update``, ``yaw_rad`` (the
-    twist), ``yaw_variance_rad2`` (P_psipsi), ``bias_rad_s`` (the z bias), ``overflow_counts``) plus
+    twist), ``yaw_variance_rad2`` (h P h^T, the twist's), ``bias_rad_s`` (the z bias), ``overflow_counts``) plus
     ``singular_ticks`` (R,), the ticks inside the singularity margin.  ``rates`` (R, K, 3) is its input."""
 
     def __init__(self, scenario: Scenario, sig: NodeSignals, k_start: int, yaw0_rad: float):
@@ -94,7 +94,9 @@ class SixStateLanes:
 
     @property
     def yaw_variance_rad2(self) -> np.ndarray:
-        return self.states[:, ssk.P + 14].copy()
+        out = np.empty(self.realizations)
+        ssk.twist_variance_lanes(self.states, out)
+        return out
 
     @property
     def bias_rad_s(self) -> np.ndarray:

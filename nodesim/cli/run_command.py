@@ -55,6 +55,10 @@ def run(args) -> int:
     with SimulatedTimeProgress(scenario.simulation.duration_s, quiet=args.quiet) as bar:
         result = simulate_scenario(scenario, digest, progress=bar.update if bar.enabled else None)
     out = result.save(out, force=args.force)
+    from nodesim.chain.metrics import singularity_warning
+
+    if (warning := singularity_warning(result.summary)) is not None:
+        print(f"nodesim run: {warning}", file=sys.stderr)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 

@@ -12,9 +12,12 @@ The chain passes the tube's twist down (the encoder's angle, the yaw the 2-state
 the 6-state filter's psi is the Z-Y-X Euler yaw.  With C_b^n = Rz(psi) Ry(theta) Rx(phi) (nav z up) the twist is
 the sum of the first and third Z-Y-Z angles of C_b^n:
     psi_t = atan2(C10 - C01, C00 + C11) = psi + c(phi, theta),   c = atan2(-sin(theta) sin(phi), cos(theta) + cos(phi))
-(our derivation, docs/deviated_wells.md; c = O(phi theta), zero for a vertical tube).  So a twist reference
-psi_t,ref is the Euler-yaw reference psi_t,ref - c(phi_INS, theta_INS), and z = wrap(psi_INS - that) with
-H = e3 (the yaw-only model of thesis eq 3.31 / digest 2.6; the roll/pitch sensitivity of c is left out of H).
+(our derivation, docs/deviated_wells.md; c = O(phi theta), zero for a vertical tube).  A twist reference (the encoder's,
+or the node above's) is the yaw-only measurement of thesis eq 3.31 / digest 2.6 on the twist: z = wrap(psi_t(x_INS)
+- psi_t,ref) into (-pi, pi], linearised (eq 3.9, H = dh/dx) as h = [dc/dphi, dc/dtheta, 1, 0, 0, 0]; the node
+reports psi_t and h P h^T.  (With H = e3 alone, i.e. c's roll/pitch sensitivity left out, the update's roll/pitch
+corrections change c without the filter knowing, a loop that ran away within 15 s in a static string at 2 deg:
+the node's roll and pitch errors doubled every few ticks.  Near vertical h = e3 + O(tilt).)
 """
 
 from __future__ import annotations
@@ -238,21 +241,29 @@ def predict(state, rates, params) -> bool:
 
 
 @njit(cache=True)
-def update(state, ref_yaw_rad: float, var_rad2: float) -> None:
-    """Yaw-only measurement update of one lane (eqs 3.11-3.14, 3.31): z = wrap(psi - ref) into (-pi, pi],
-    H = e3^T, K = P H^T / (P_psipsi + R), closed-loop reset, Joseph form, symmetrised."""
-    z = wrap_pi_closed(state[ATT + 2] - ref_yaw_rad)
-    inv_s = 1.0 / (state[P + 14] + var_rad2)
+def update_row(state, h, z: float, var_rad2: float) -> None:
+    """Scalar measurement update of one lane with the row ``h`` (6,) and innovation ``z`` (eqs 3.11-3.14):
+    K = P h^T / (h P h^T + R), dx = K z, closed-loop reset, P = (I - K h) P (I - K h)^T + K R K^T, symmetrised."""
+    ph = np.empty(6)
+    for i in range(6):
+        acc = 0.0
+        for m in range(6):
+            acc += state[P + 6 * i + m] * h[m]
+        ph[i] = acc
+    hph = 0.0
+    for i in range(6):
+        hph += h[i] * ph[i]
+    inv_s = 1.0 / (hph + var_rad2)
     k = np.empty(6)
     for i in range(6):
-        k[i] = state[P + 6 * i + 2] * inv_s
+        k[i] = ph[i] * inv_s
     for i in range(3):
         state[ATT + i] = state[ATT + i] - k[i] * z
         state[BIAS + i] = state[BIAS + i] + k[3 + i] * z
-    ikh = np.empty((6, 6))  # I - K H: column 2 minus K
+    ikh = np.empty((6, 6))
     for i in range(6):
         for j in range(6):
-            ikh[i, j] = (1.0 if i == j else 0.0) - (k[i] if j == 2 else 0.0)
+            ikh[i, j] = (1.0 if i == j else 0.0) - k[i] * h[j]
     tmp, new = np.empty((6, 6)), np.empty((6, 6))
     for i in range(6):
         for j in range(6):
@@ -272,10 +283,53 @@ def update(state, ref_yaw_rad: float, var_rad2: float) -> None:
 
 
 @njit(cache=True)
+def update(state, ref_yaw_rad: float, var_rad2: float) -> None:
+    """Euler-yaw update (eq 3.31, H = e3^T, as firmware_model.six_state_filter.SixStateFilter.update):
+    z = wrap(psi - ref) into (-pi, pi]."""
+    h = np.zeros(6)
+    h[2] = 1.0
+    update_row(state, h, wrap_pi_closed(state[ATT + 2] - ref_yaw_rad), var_rad2)
+
+
+@njit(cache=True)
+def twist_row(state, h) -> None:
+    """h = d psi_t / d x = [dc/dphi, dc/dtheta, 1, 0, 0, 0] at the lane's attitude (eq 3.9, H = dh/dx, for the
+    twist h(x) = psi + c(phi, theta), c = atan2(N, D), N = -s_theta s_phi, D = c_theta + c_phi)."""
+    sp, cp = math.sin(state[ATT]), math.cos(state[ATT])
+    st, ct = math.sin(state[ATT + 1]), math.cos(state[ATT + 1])
+    n, d = -st * sp, ct + cp
+    q = 1.0 / (n * n + d * d)
+    h[0] = (d * (-st * cp) - n * (-sp)) * q
+    h[1] = (d * (-ct * sp) - n * (-st)) * q
+    h[2] = 1.0
+    h[3], h[4], h[5] = 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
 def update_twist(state, ref_twist_rad: float, var_rad2: float) -> None:
-    """Update with a twist reference (the encoder's or the node above's): the Euler-yaw reference
-    psi_t,ref - c(phi_INS, theta_INS) (module docstring)."""
-    update(state, ref_twist_rad - twist_offset(state[ATT], state[ATT + 1]), var_rad2)
+    """Update with a twist reference (the encoder's or the node above's): z = wrap(psi_t(x_INS) - psi_t,ref) into
+    (-pi, pi], linearised with :func:`twist_row` (the EKF form of eqs 3.9-3.14; module docstring)."""
+    h = np.empty(6)
+    twist_row(state, h)
+    update_row(state, h, wrap_pi_closed(twist_rad(state) - ref_twist_rad), var_rad2)
+
+
+@njit(cache=True)
+def twist_variance_rad2(state) -> float:
+    """h P h^T: the variance of the reported twist (what the node sends with it)."""
+    h = np.empty(6)
+    twist_row(state, h)
+    acc = 0.0
+    for i in range(6):
+        for j in range(6):
+            acc += h[i] * state[P + 6 * i + j] * h[j]
+    return acc
+
+
+@njit(cache=True, nogil=True)
+def twist_variance_lanes(states, out) -> None:
+    for r in range(states.shape[0]):
+        out[r] = twist_variance_rad2(states[r])
 
 
 @njit(cache=True, nogil=True)
@@ -306,8 +360,8 @@ def run_node(states, params, singular, rates, gyro_z, t, k_first, k_end, codes, 
              ref_yaw, ref_var, r_first, r_end) -> None:
     """The compiled engine's phase 2 for one node (as :func:`nodesim.chain.compiled.filters.run_node`, with the
     6-state lane): ``rates`` (R, K, 3) the filter's gyro input, ``gyro_z`` (R, K) the z rate the forwarded
-    reference is advanced with (eq 3.29, :func:`.filters.forwarded_reference`); records the twist, P_psipsi and
-    the z-bias."""
+    reference is advanced with (eq 3.29, :func:`.filters.forwarded_reference`); records the twist, its variance
+    and the z-bias."""
     for r in range(r_first, r_end):
         st = states[r]
         for k in range(k_first, k_end):
@@ -326,4 +380,4 @@ def run_node(states, params, singular, rates, gyro_z, t, k_first, k_end, codes, 
                                              gyro_z, st[BIAS + 2], dt_s, extrapolate, rate_sigma, offset_var)
                 update_twist(st, ref, v)
                 ref_yaw[r, k], ref_var[r, k] = ref, v
-            yaw[r, k], var[r, k], bias[r, k] = twist_rad(st), st[P + 14], st[BIAS + 2]
+            yaw[r, k], var[r, k], bias[r, k] = twist_rad(st), twist_variance_rad2(st), st[BIAS + 2]
