@@ -138,6 +138,24 @@ def _body_to_nav(phi: float, theta: float, c) -> None:
 
 
 @njit(cache=True)
+def _sandwich(m, state, out) -> None:
+    """out = M P M^T (6 x 6) with P the lane's covariance, summed left to right."""
+    mp = np.empty((6, 6))
+    for i in range(6):
+        for j in range(6):
+            acc = 0.0
+            for n in range(6):
+                acc += m[i, n] * state[P + 6 * n + j]
+            mp[i, j] = acc
+    for i in range(6):
+        for j in range(6):
+            acc = 0.0
+            for n in range(6):
+                acc += mp[i, n] * m[j, n]
+            out[i, j] = acc
+
+
+@njit(cache=True)
 def predict(state, rates, params) -> bool:
     """Time update of one lane over one tick with the tick-averaged gyro rates (3,) [rad/s]; True if the tick's
     Euler-rate terms fell inside the singularity margin (module docstring of firmware_model.six_state_filter)."""
@@ -213,20 +231,8 @@ def predict(state, rates, params) -> bool:
                 tr[i, j], tr[i, 3 + j], gc[i, j] = one, dt * one, a_gain * one
     state[ATT], state[ATT + 1], state[ATT + 2] = phi, theta, psi
     # P = Phi P Phi^T + Q_d, Q_d = blkdiag(G_C diag(sigma_v^2) G_C^T dt, G_D^2 diag(2 sigma_b^2 / tau) dt)
-    tp_ = np.empty((6, 6))
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for m in range(6):
-                acc += tr[i, m] * state[P + 6 * m + j]
-            tp_[i, j] = acc
     new = np.empty((6, 6))
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for m in range(6):
-                acc += tp_[i, m] * tr[j, m]
-            new[i, j] = acc
+    _sandwich(tr, state, new)
     for i in range(3):
         for j in range(3):
             q = 0.0
@@ -264,19 +270,11 @@ def update_row(state, h, z: float, var_rad2: float) -> None:
     for i in range(6):
         for j in range(6):
             ikh[i, j] = (1.0 if i == j else 0.0) - k[i] * h[j]
-    tmp, new = np.empty((6, 6)), np.empty((6, 6))
+    new = np.empty((6, 6))
+    _sandwich(ikh, state, new)
     for i in range(6):
         for j in range(6):
-            acc = 0.0
-            for m in range(6):
-                acc += ikh[i, m] * state[P + 6 * m + j]
-            tmp[i, j] = acc
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for m in range(6):
-                acc += tmp[i, m] * ikh[j, m]
-            new[i, j] = acc + k[i] * var_rad2 * k[j]
+            new[i, j] = new[i, j] + k[i] * var_rad2 * k[j]
     for i in range(6):
         for j in range(6):
             state[P + 6 * i + j] = 0.5 * (new[i, j] + new[j, i])
