@@ -87,7 +87,7 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
     from nodesim.chain.network import simulate_chain
     from nodesim.chain.run_tables import run_tables
 
-    require_engine_filter(scenario)  # filter.states = 6: refused before any work (issue 24)
+    require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     engine = choose_engine(scenario)
     check_run_memory(scenario, engine, available_memory_bytes(), streamed=stream_to is not None)  # before any work
     started = datetime.now(timezone.utc)

@@ -37,15 +37,11 @@ from nodesim.units import DEG
 
 
 def require_engine_filter(scenario: Scenario) -> None:
-    """Refuse a scenario whose node filter the chain engines do not run: ``filter.states = 6`` (issue 24: the
-    6-state filter exists as :class:`firmware_model.six_state_filter.SixStateFilter`, the engines do not drive it
-    yet).  Its 6-state tuning is checked first, so a bad one is reported as such."""
-    if scenario.filter.states == 2:
-        return
-    six_state_config(scenario)
-    raise NodesimError(
-        f"filter.states = {scenario.filter.states}: the chain engines do not run the 6-state filter yet (it exists "
-        "as firmware_model.six_state_filter.SixStateFilter, float only; issue 24); allowed for a run: filter.states = 2")
+    """Check the node filter a run will drive: for ``filter.states = 6`` (the float 6-state filter both chain engines
+    run, :mod:`nodesim.chain.six_state`; issue 24) its 6-state tuning, so a bad one is reported before any work
+    (the fixed-point 6-state filter does not exist: the schema refuses ``implementation = "fixed"`` with 6)."""
+    if scenario.filter.states == 6:
+        six_state_config(scenario)
 
 
 def six_state_config(scenario: Scenario) -> SixStateFilterConfig:
@@ -62,10 +58,14 @@ def six_state_config(scenario: Scenario) -> SixStateFilterConfig:
 
 
 def filter_config(scenario: Scenario) -> YawFilterConfig:
-    """Filter tuning from the scenario: the thesis Allan values of the z gyro (table V.1), A, B and how B enters the
-    bias process noise (``filter.b_tuning``, eqs 4.14-4.15).  Refuses ``filter.states = 6``
-    (:func:`require_engine_filter`): everything that builds a node filter or firmware build comes through here."""
-    require_engine_filter(scenario)
+    """The 2-state filter's tuning from the scenario: the thesis Allan values of the z gyro (table V.1), A, B and how
+    B enters the bias process noise (``filter.b_tuning``, eqs 4.14-4.15).  Refuses ``filter.states = 6``: whatever
+    builds a 2-state filter or firmware build comes through here (the replayer too, which does not run the 6-state
+    filter); the chain engines build the 6-state one from :func:`six_state_config`."""
+    if scenario.filter.states != 2:
+        raise NodesimError(
+            f"filter.states = {scenario.filter.states}: only the chain engines run the 6-state filter "
+            "(nodesim.chain.six_state); the 2-state filter, the fixed-point firmware and replay need filter.states = 2")
     return _yaw_filter_config(scenario)
 
 

@@ -21,7 +21,9 @@ part of each drilling survey stop; only where the node's filter runs):
 - ``max_time_since_update_s``: the longest time over the metric ticks since the node last applied a
   reference update (from the node's filter start; how stale its estimate got).
 Chain-wide: ``adc_clipped_samples``, the IMU axis readings (gyro and accelerometer) clipped at full scale, summed
-over every node (mean over realizations; no p95).
+over every node (mean over realizations; no p95); with ``filter.states = 6``, ``singular_ticks``, the node-ticks
+whose 6-state filter was inside its singularity margin (pitch near +/-90 deg; summed over the nodes, mean over
+realizations, no p95; a run prints :func:`singularity_warning` when it is > 0).
 Each is computed per realization; the summary gives the mean over realizations and, for R > 1, the 95th
 percentile under ``*_p95``.  The headline keys are those of the bottom node (the last in the chain, the
 one whose survey the ground station uses); every node also appears as ``node<id>_<key>``.
@@ -175,6 +177,9 @@ def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, 
     R = run.lost_packets.shape[0]
     out["adc_clipped_samples"] = sum((n.adc_clipped_samples if n.adc_clipped_samples is not None else np.zeros(R))
                                      for n in nodes).astype(float)
+    singular = [n.singular_ticks for n in nodes if n.singular_ticks is not None]
+    if singular:  # filter.states = 6: node-ticks whose Euler-rate terms fell inside the singularity margin
+        out["singular_ticks"] = sum(singular).astype(float)
     out.update(link_metrics(run))
     if run.motion.stops:
         received = np.zeros(R)
@@ -184,13 +189,25 @@ def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, 
     return out
 
 
+def singularity_warning(summary: dict) -> str | None:
+    """The warning a run prints when its 6-state filters spent node-ticks inside the singularity margin
+    (``singular_ticks`` > 0: the Euler-rate terms 1/cos(pitch) were held or decoupled there,
+    firmware_model.six_state_filter), None otherwise."""
+    n = summary.get("singular_ticks")
+    if not n:
+        return None
+    return (f"warning: singular_ticks = {n:.6g} (mean over realizations, all nodes): the 6-state filter's pitch came "
+            "within filter.singularity_margin_deg of +/-90 deg and its Euler-rate terms were "
+            "held/decoupled there (filter.singularity); its yaw is approximate in those ticks")
+
+
 def summarize(per_realization: dict[str, np.ndarray]) -> dict[str, float | None]:
     """Flat summary: mean over realizations (NaN -> None in JSON), plus p95 when R > 1 (not for counts
     and fractions)."""
     out: dict[str, float | None] = {}
     no_p95 = ("_fraction", "_packets", "surveys_received", "_ratio", "_retransmissions", "_latency_s",
               "_radio_energy_j", "queue_drops", "fallback_frames", "_clipped_samples",
-              "crc_rejected_frames", "undetected_frame_errors")
+              "crc_rejected_frames", "undetected_frame_errors", "singular_ticks")
     for key, values in per_realization.items():
         finite = values[np.isfinite(values)]
         out[key] = float(np.mean(finite)) if finite.size else None

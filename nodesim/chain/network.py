@@ -419,6 +419,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
         estimate_frames=node.frames,
         reference_error_rad=node.sig.reference_error_rad,
+        singular_ticks=getattr(node.kf, "singular_ticks", None),
     )
 
 
@@ -438,7 +439,7 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     they are complete, what it returns becomes the node's summary and the ChainRun keeps no per-tick records."""
     from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
 
-    require_engine_filter(scenario)  # filter.states = 6 is not run by either engine yet (issue 24)
+    require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     if choose_engine(scenario) == "compiled":
         return simulate_compiled(Network(scenario, attach_signals=False), progress, on_node)
     return Network(scenario).run(progress, on_node=on_node)

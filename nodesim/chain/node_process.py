@@ -46,6 +46,7 @@ from nodesim.chain.estimator import (FirmwareLanes, firmware_config, forwarded_r
 from nodesim.motion.timelines import NodeTimeline
 from nodesim.chain.packets import EstimatePacket, SurveyPacket, estimate_frame, select_reference
 from nodesim.chain.sensing import NodeSignals
+from nodesim.chain.six_state import SixStateLanes
 
 
 class ChainWorld(Protocol):
@@ -161,11 +162,14 @@ class ChainNode:
                 continue
             elif self.kf is None:
                 bias0 = self.bias_sum / self.bias_n if self.bias_n else 0.0
-                self.kf = new_filter(self.net.scenario, self.yaw.shape[0], self.net.encoder.read(t)[0], bias0)
+                if self.net.scenario.filter.states == 6:  # the 6-state filter: 3-axis gyro, levelled start
+                    self.kf = SixStateLanes(self.net.scenario, sig, k, self.net.encoder.read(t)[0])
+                else:
+                    self.kf = new_filter(self.net.scenario, self.yaw.shape[0], self.net.encoder.read(t)[0], bias0)
             elif tl.holding(t):
                 self.inbox.clear()  # nothing arrives from a powered-down link; the state is saved
             else:
-                self.kf.predict(sig.gyro_rad_s[:, k])
+                self.kf.predict(self.kf.rates[:, k] if self.net.scenario.filter.states == 6 else sig.gyro_rad_s[:, k])
                 if tl.is_top(t):
                     if self.scheduled[k]:
                         self._encoder_update(k, t)

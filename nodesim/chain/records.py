@@ -52,6 +52,8 @@ class NodeRun:
     # (R, 2) rad: static error of the lab's measured truth (along, across the tilt; metrics.reference_accuracy_pct,
     # nodesim.chain.sensing.reference_error_rad); None: the metrics compare with the exact geometry
     reference_error_rad: np.ndarray | None = None
+    # (R,) int64: the 6-state filter's ticks inside its singularity margin (filter.states = 6); None: 2-state filter
+    singular_ticks: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -78,6 +80,7 @@ class NodeSummary:
     duplicate_packets: np.ndarray  # (R,)
     firmware_overflows: dict
     adc_clipped_samples: np.ndarray | None = None  # (R,)
+    singular_ticks: np.ndarray | None = None  # (R,) filter.states = 6
 
 
 @dataclass(frozen=True)
@@ -104,5 +107,5 @@ class ChainRun:
     @property
     def node_results(self) -> tuple:
         """The nodes' records, or in a streamed run their summaries: both have ``node_id``, ``stale_packets``,
-        ``duplicate_packets``, ``firmware_overflows`` and ``adc_clipped_samples``."""
+        ``duplicate_packets``, ``firmware_overflows``, ``adc_clipped_samples`` and ``singular_ticks``."""
         return self.nodes or self.summaries

@@ -172,4 +172,5 @@ class NodeStream:
             duplicate_packets=run.duplicate_packets,
             firmware_overflows=run.firmware_overflows,
             adc_clipped_samples=run.adc_clipped_samples,
+            singular_ticks=run.singular_ticks,
         )

@@ -65,6 +65,10 @@ def run(args) -> int:
     finally:
         if stage is not None:
             shutil.rmtree(stage, ignore_errors=True)
+    from nodesim.chain.metrics import singularity_warning
+
+    if (warning := singularity_warning(result.summary)) is not None:
+        print(f"nodesim run: {warning}", file=sys.stderr)
     if args.record is not None:
         from nodesim.replay.chain_log import record_chain_run
 

@@ -37,7 +37,7 @@ from firmware_model import fixed_kernel
 from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from nodesim.chain import bit_errors
-from nodesim.chain.compiled import filters, float_kernel, frame_pass
+from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_node
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.estimator import timer_us
@@ -349,6 +349,9 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     if not starts.size:
         return
     n_static = int(starts[0])
+    if net.scenario.filter.states == 6:  # the float 6-state filter (issue 24)
+        six_state_node.run(net, n, out, k_end, n_static, codes, _encoder_reads(net, n, t, codes, out))
+        return
     if net.scenario.filter.implementation == "fixed":
         _run_node_firmware(net, n, out, k_end, n_static, codes, bits)
         return

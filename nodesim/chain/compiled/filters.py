@@ -28,6 +28,22 @@ from nodesim.chain.compiled import float_kernel as flk
 from nodesim.chain.compiled import tick_plan as tp
 
 
+@njit(cache=True, _nrt=False, inline="always")
+def forwarded_reference(r, k, s, j, t, up_t, up_yaw, up_var, gyro, bias_rad_s, dt_s, extrapolate, rate_sigma,
+                        offset_var):
+    """(psi_ref, R) at tick ``k`` of realization ``r`` from the estimate node n - 1 - ``s`` read at its tick ``j``
+    (module docstring; thesis eq 3.29, digest 2.6), the rate advanced with the z gyro ``gyro`` (R, K) minus
+    ``bias_rad_s``: the 2-state and the 6-state loops share it."""
+    transfer = t[k] - up_t[s][j]
+    omega = gyro[r, k] - bias_rad_s
+    if extrapolate and k > 0:
+        slope = (gyro[r, k] - gyro[r, k - 1]) / dt_s
+        omega = omega + slope * 0.5 * (dt_s - transfer)
+    ref = up_yaw[s][r, j] + omega * transfer
+    d = transfer * rate_sigma
+    return ref, up_var[s][r, j] + d * d + offset_var
+
+
 @njit(cache=True, _nrt=False, nogil=True)
 def run_node(fstate, fparams, counts, gyro, t, k_first, k_end, codes, enc_ref, enc_var,
              applied, src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var,
@@ -50,15 +66,8 @@ def run_node(fstate, fparams, counts, gyro, t, k_first, k_end, codes, enc_ref, e
                     flk.update(fst, enc_ref[r, k], enc_var, fparams, counts)
                     ref_yaw[r, k], ref_var[r, k] = enc_ref[r, k], enc_var
             elif c == tp.RUN and src_node[r, k] > 0:
-                s, j = src_node[r, k] - 1, src_tick[r, k]
-                transfer = t[k] - up_t[s][j]
-                omega = gyro[r, k] - flk.bias_rad_s(fst, fparams)
-                if extrapolate and k > 0:
-                    slope = (gyro[r, k] - gyro[r, k - 1]) / dt_s
-                    omega = omega + slope * 0.5 * (dt_s - transfer)
-                ref = up_yaw[s][r, j] + omega * transfer
-                d = transfer * rate_sigma
-                v = up_var[s][r, j] + d * d + offset_var
+                ref, v = forwarded_reference(r, k, src_node[r, k] - 1, src_tick[r, k], t, up_t, up_yaw, up_var, gyro,
+                                             flk.bias_rad_s(fst, fparams), dt_s, extrapolate, rate_sigma, offset_var)
                 flk.update(fst, ref, v, fparams, counts)
                 ref_yaw[r, k], ref_var[r, k] = ref, v
             yaw[r, k], var[r, k], bias[r, k] = (flk.yaw_rad(fst, fparams), flk.yaw_variance_rad2(fst, fparams),

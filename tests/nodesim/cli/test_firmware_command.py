@@ -13,7 +13,10 @@ from firmware_model import c_reference
 from nodesim.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[3]
-SCENARIOS = sorted(p for p in (ROOT / "scenarios").rglob("*.toml") if not {"sweeps", "optimize"} & set(p.parts))
+# a scenario with filter.states = 6 has no fixed-point firmware build to export (the 6-state filter is float only;
+# tests/nodesim/scenario/test_filter_states.py checks that the export refuses it)
+SCENARIOS = sorted(p for p in (ROOT / "scenarios").rglob("*.toml") if not {"sweeps", "optimize"} & set(p.parts)
+                   and "\nstates = 6\n" not in p.read_text())
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")

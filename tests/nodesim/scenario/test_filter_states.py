@@ -1,7 +1,8 @@
 """filter.states = 2 | 6 (issue 24): validated, its 6-state settings checked and carried to the 6-state filter's
-configuration, and a run with 6 refused by every entry that would build a node filter (the chain engines do not
-run the 6-state filter yet, so nothing pretends)."""
+configuration; a run with 6 goes through the CLI on both engines, and every entry that would build a 2-state filter
+or a firmware build (the replayer, the fixed-point header) refuses it, so nothing pretends."""
 
+import json
 import math
 
 import pytest
@@ -16,7 +17,7 @@ from nodesim.replay.replayer import FirmwareSetup
 from nodesim.scenario.schema import Scenario, load_scenario
 
 SIX = {"filter.states": 6}
-REFUSED = "the chain engines do not run the 6-state filter yet"
+REFUSED = "only the chain engines run the 6-state filter"
 
 
 @pytest.mark.parametrize("text, fragments", [
@@ -74,14 +75,14 @@ def test_six_state_config_carries_the_scenario_tuning():
     assert cfg.discretisation == "rotation"
 
 
-def test_a_run_with_six_states_is_refused_everywhere_a_filter_is_built(lab_toml):
-    """The API, the chain entry, the filter builder (both engines and the replayer go through it) and the
-    replayer's setup all refuse states = 6 with one message naming filter.states; states = 2 passes."""
+def test_six_states_are_refused_where_a_two_state_filter_is_built(lab_toml):
+    """The 2-state filter builder and the replayer's setup refuse states = 6 with one message naming filter.states
+    (the replayer does not run the 6-state filter); the chain entry's check passes it (both engines run it)."""
     scenario, _ = load_scenario(lab_toml)
     six = scenario.with_overrides(**SIX)
     require_engine_filter(scenario)
-    for call in (lambda: simulate(six), lambda: simulate_chain(six), lambda: filter_config(six),
-                 lambda: require_engine_filter(six), lambda: FirmwareSetup.from_scenario(six)):
+    require_engine_filter(six)
+    for call in (lambda: filter_config(six), lambda: FirmwareSetup.from_scenario(six)):
         with pytest.raises(NodesimError, match=f"filter.states = 6: {REFUSED}"):
             call()
 
@@ -96,16 +97,43 @@ def _six_state_toml(lab_toml, tmp_path, engine="auto"):
     return path
 
 
+def _short(text):
+    """The lab scenario cut to 120 s (its metrics window inside)."""
+    for old, new in (("duration_s = 620.0", "duration_s = 120.0"), ("window_start_s = 370.0", "window_start_s = 60.0"),
+                     ("window_end_s = 570.0", "window_end_s = 120.0")):
+        assert old in text
+        text = text.replace(old, new)
+    return text
+
+
 @pytest.mark.parametrize("engine", ["event", "compiled"])
-def test_cli_run_with_six_states_exits_2_and_writes_nothing(lab_toml, tmp_path, capsys, engine):
+def test_cli_run_with_six_states_writes_its_run_directory(lab_toml, tmp_path, capsys, engine):
+    """Near vertical (the lab's 2 deg) no tick is singular: the summary says 0 and no warning is printed."""
     path = _six_state_toml(lab_toml, tmp_path, engine)
-    assert load_scenario(path)[0].filter.states == 6
+    path.write_text(_short(path.read_text()))
     out = tmp_path / "run-out"
-    code = main(["run", str(path), "--out", str(out)])
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert f"filter.states = 6: {REFUSED}" in err and "Traceback" not in err
-    assert not out.exists()
+    code = main(["run", str(path), "--out", str(out), "--json", "--quiet"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    summary = json.loads(captured.out)
+    assert summary["engine"] == engine
+    assert summary["singular_ticks"] == 0 and "singular_ticks" not in captured.err
+    assert (out / "summary.json").exists()
+
+
+def test_cli_run_warns_when_six_state_ticks_are_singular(lab_toml, tmp_path, capsys):
+    """At 89 deg inclination the string's spin swings the pitch through the 5 deg margin: the run prints the
+    warning on stderr (stdout keeps the JSON alone) and the summary counts the node-ticks."""
+    path = _six_state_toml(lab_toml, tmp_path)
+    text = _short(path.read_text())
+    path.write_text(text.replace("inclination_deg = 2.0\n", "inclination_deg = 89.0\n", 1))
+    assert load_scenario(path)[0].motion.inclination_deg == 89.0
+    code = main(["run", str(path), "--out", str(tmp_path / "o"), "--json", "--quiet"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    summary = json.loads(captured.out)
+    assert summary["singular_ticks"] > 0
+    assert "nodesim run: warning: singular_ticks" in captured.err
 
 
 def test_firmware_export_refuses_six_states(lab_toml, tmp_path, capsys):
