@@ -27,7 +27,7 @@ def run(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, encoder_
     src = src_node[:, n, :K]
     offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
-    up = (tuple(a.sig.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
+    up = (tuple(a.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
     rates = np.ascontiguousarray(kf.rates)
 
     def run_range(r0: int, r1: int) -> None:
