@@ -38,9 +38,15 @@ from nodesim.units import DEG
 
 def require_engine_filter(scenario: Scenario) -> None:
     """Check the node filter a run will drive: for ``filter.states = 6`` (the float 6-state filter both chain engines
-    run, :mod:`nodesim.chain.six_state`; issue 24) its 6-state tuning, so a bad one is reported before any work
-    (the fixed-point 6-state filter does not exist: the schema refuses ``implementation = "fixed"`` with 6)."""
+    run, :mod:`nodesim.chain.six_state`; issue 24) its 6-state tuning, so a bad one is reported before any work.
+    The fixed-point 6-state filter (:mod:`firmware_model.six_state_fixed`) is not run by the chain engines yet: a
+    run with it is refused, naming the key."""
     if scenario.filter.states == 6:
+        if scenario.filter.implementation == "fixed":
+            raise NodesimError(
+                "filter.states = 6 with filter.implementation = 'fixed': the fixed-point 6-state filter "
+                "(firmware_model.six_state_fixed) is not run by the chain engines yet; allowed for a run with "
+                "states = 6: filter.implementation = 'float'")
         six_state_config(scenario)
 
 

@@ -1,6 +1,6 @@
 """The chain's 6-state node filter (issue 24, ``filter.states = 6``, float): its input, its start, and the lanes the
 SimPy engine drives (the compiled engine runs the same lane functions in its loop,
-:mod:`nodesim.chain.compiled.six_state_kernel`).
+:mod:`nodesim.chain.compiled.six_state_float_kernel`).
 
 Input: the three gyro axes in rad/s from the tick's count sums, as the 2-state filter converts its z axis
 (:mod:`nodesim.chain.sensing`):  omega[k, i] = gyro_counts[k, i] / n_k / S_g.
@@ -13,7 +13,7 @@ Start (at the node's filter start, after its static window of n ticks, thesis 4.
     1.1-1.3, 4.3), and initialises the filter at the expected state (eqs 3.15-3.16); that the roll/pitch start is
     taken from the static window is our choice (docs/deviated_wells.md);
   - yaw: psi_0 = psi_enc - c(phi_0, theta_0), so that the twist the node reports starts at the encoder's angle
-    (:mod:`nodesim.chain.compiled.six_state_kernel`);
+    (:mod:`nodesim.chain.compiled.six_state_float_kernel`);
   - P_0 of :class:`firmware_model.six_state_filter.SixStateFilterConfig`.
 Without a static window (n = 0) the bias starts at 0 (as the 2-state filter's) and the levelling uses the first tick.
 """
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodesim.chain.compiled import six_state_kernel as ssk
+from nodesim.chain.compiled import six_state_float_kernel as ssk
 from nodesim.chain.estimator import six_state_config
 from nodesim.chain.sensing import NodeSignals
 from nodesim.scenario.schema import Scenario
@@ -49,7 +49,7 @@ def level_attitude(force_m_s2: np.ndarray, twist_rad) -> np.ndarray:
     fx, fy, fz = force_m_s2[:, 0], force_m_s2[:, 1], force_m_s2[:, 2]
     phi = np.arctan2(fy, fz)
     theta = np.arctan2(-fx, np.hypot(fy, fz))
-    c = np.arctan2(-np.sin(theta) * np.sin(phi), np.cos(theta) + np.cos(phi))  # six_state_kernel.twist_offset
+    c = np.arctan2(-np.sin(theta) * np.sin(phi), np.cos(theta) + np.cos(phi))  # six_state_float_kernel.twist_offset
     return np.stack([phi, theta, twist_rad - c], axis=1)
 
 

@@ -214,15 +214,15 @@ class FilterSection(_Section):
     G_D = sqrt(B), Q_bb = B 2 sigma_b^2 / tau (firmware_model.yaw_filter.YawFilterConfig.q_d).  The bounds of
     ``tuning_a``, ``tuning_b`` and ``bias_tau_s`` (> 0) are what keeps Q >= 0 (and sqrt(B) real) for both filters.
 
-    ``states`` picks the filter: 2 (yaw, z bias: the near-vertical form, what the chain engines run) or 6 (the
-    thesis's roll, pitch, yaw and three biases, eqs 3.22-3.26: firmware_model.six_state_filter, issue 24).  The
-    6-state filter exists in float and in fixed point (firmware_model.six_state_fixed: "rotation" only, 32-bit
-    words) and the chain engines do not run it yet: a run with ``states = 6`` is refused.  ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
+    ``states`` picks the filter: 2 (yaw, z bias: the near-vertical form) or 6 (the thesis's roll, pitch, yaw and
+    three biases, eqs 3.22-3.26: firmware_model.six_state_filter, issue 24).  The 6-state filter exists in float
+    (both chain engines run it) and in fixed point (firmware_model.six_state_fixed: "rotation" only, 32-bit words),
+    which the chain engines do not run yet: a run with ``states = 6`` and ``implementation = "fixed"`` is refused.  ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
 
     states: Literal[2, 6] = Field(
-        2, description="node filter states: 2 = (yaw, z-gyro bias), the near-vertical form the chain engines run; "
-        "6 = the thesis's (roll, pitch, yaw, 3 gyro biases), float or fixed ('rotation' only), not yet run by the chain engines (a run "
-        "with 6 is refused)")
+        2, description="node filter states: 2 = (yaw, z-gyro bias), the near-vertical form; 6 = the thesis's (roll, "
+        "pitch, yaw, 3 gyro biases): float (run by both chain engines) or fixed ('rotation' only; a run with it is "
+        "refused: the chain engines do not run the fixed 6-state filter yet)")
     singularity_margin_deg: float = Field(
         5.0, gt=0.0, lt=90.0, description="states = 6: how close to pitch +/-90 deg (horizontal) the Euler-rate "
         "terms (1/cos pitch) are treated as singular; such ticks are counted")

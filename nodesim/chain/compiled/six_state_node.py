@@ -1,13 +1,13 @@
 """Phase 2 of the compiled engine for a node running the 6-state filter (``filter.states = 6``): the node's lanes
 started as the SimPy engine starts them (:class:`nodesim.chain.six_state.SixStateLanes`), then
-:func:`.six_state_kernel.run_node` over its running ticks with the references phase 1 chose."""
+:func:`.six_state_float_kernel.run_node` over its running ticks with the references phase 1 chose."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from nodesim import threads
-from nodesim.chain.compiled import six_state_kernel as ssk
+from nodesim.chain.compiled import six_state_float_kernel as ssk
 from nodesim.chain.six_state import SixStateLanes
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from firmware_model.six_state_filter import SixStateFilter, SixStateFilterConfig, body_to_nav
-from nodesim.chain.compiled import six_state_kernel as ssk
+from nodesim.chain.compiled import six_state_float_kernel as ssk
 from nodesim.chain.metrics import per_realization_metrics, singularity_warning, summarize
 from nodesim.chain.network import simulate_chain
 from nodesim.chain.six_state import level_attitude

@@ -143,3 +143,18 @@ def test_firmware_export_refuses_six_states(lab_toml, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and REFUSED in err
     assert not (tmp_path / "node.h").exists()
+
+
+def test_a_run_with_the_fixed_six_state_filter_is_refused_naming_the_key(lab_toml, tmp_path, capsys):
+    """The schema accepts the fixed-point 6-state build (firmware_model.six_state_fixed, bit-exact with its C twin);
+    the chain engines do not run it yet, so a run says so at once and writes nothing."""
+    text = lab_toml.read_text()
+    assert "[filter]" in text
+    path = tmp_path / "six_fixed.toml"
+    path.write_text(text.replace('implementation = "float"', 'implementation = "fixed"')
+                    .replace("[filter]", "[filter]\nstates = 6"))
+    out = tmp_path / "run-out"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "filter.states = 6 with filter.implementation = 'fixed'" in err and "filter.implementation = 'float'" in err
+    assert not out.exists()
