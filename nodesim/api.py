@@ -130,7 +130,7 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
     }
     run = Run(scenario, summary, manifest, tables, chain.rotation_end_s, chain)
     if stream is not None:
-        run._streamed = (table.path, stream.traces)
+        run._streamed = (table.path, stream.plot)
     return run
 
 
@@ -154,7 +154,7 @@ class Run:
         self._frames: dict = {}
         self.rotation_end_s = float(rotation_end_s)
         self.chain = chain
-        self._streamed: tuple[Path, list] | None = None  # a streamed run: (its timeseries file, the yaw traces)
+        self._streamed: tuple[Path, Any] | None = None  # a streamed run: (its timeseries file, its YawPlotData)
 
     def __repr__(self) -> str:
         s = self.summary
@@ -217,10 +217,11 @@ class Run:
     # -- plots ----------------------------------------------------------------------------------------------
     def plot_yaw(self):
         """Yaw error and bias estimate of every node against time (realization 0) as a matplotlib Figure."""
-        from nodesim.chain.yaw_plot import traces_of_table, yaw_figure
+        from nodesim.chain.yaw_plot import YawPlotData, yaw_figure
 
-        traces = self._streamed[1] if self._streamed else traces_of_table(self._tables["timeseries"])
-        return yaw_figure(traces, self.rotation_end_s, f"{self.scenario.name}: realization 0")
+        data = self._streamed[1] if self._streamed else YawPlotData.from_table(
+            self._tables["timeseries"], self.scenario.simulation.duration_s)
+        return yaw_figure(data, self.rotation_end_s, f"{self.scenario.name}: realization 0")
 
     def plot_wellpath(self, tool: str = "mpu6500_filtered", sigma: str = "2", propagation: str = "iscwsa"):
         """The received surveys' wellpath (realization 0, plan view) with its uncertainty ellipses for
@@ -270,7 +271,7 @@ class Run:
                 write_parquet(out / "timeseries.parquet", columns, **PARQUET_OPTIONS)
             else:
                 write_csv(out / f"{name}.csv", columns)
-        rows = bool(self._streamed[1]) if self._streamed else self._tables["timeseries"]["node"].size > 0
+        rows = bool(self._streamed[1].node_ids) if self._streamed else self._tables["timeseries"]["node"].size > 0
         if plots and rows:  # output.timeseries = "none": nothing to plot
             write_png(out / PLOT_FILE, self.plot_yaw())
         timing = self.summary["timing"]

@@ -7,7 +7,7 @@ the surveys it sent (:func:`nodesim.chain.network.simulate_chain` ``on_node``). 
   - writes the node's rows of the timeseries table (those ``[output] timeseries`` keeps) to the file, one Parquet
     row group (zstd) or a block of CSV rows per node (:class:`TimeseriesFile`): the same table, row for row, as
     the whole-run :func:`nodesim.chain.run_tables.timeseries_columns`;
-  - keeps the node's trace for the yaw figure (:func:`nodesim.chain.yaw_plot.node_trace`);
+  - feeds the yaw figure's data (:class:`nodesim.chain.yaw_plot.YawPlotData`);
   - returns what the node leaves (:class:`~nodesim.chain.records.NodeSummary`): its metrics
     (:func:`nodesim.chain.metrics.node_metrics`, the accumulators that need its per-tick data) and its survey rows
     (:func:`nodesim.chain.run_tables.node_survey_rows`).
@@ -31,7 +31,7 @@ from nodesim import threads
 from nodesim.chain.metrics import node_metrics
 from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
 from nodesim.chain.run_tables import TIMESERIES_COLUMNS, empty_timeseries, node_timeseries, node_survey_rows
-from nodesim.chain.yaw_plot import NodeTrace, node_trace
+from nodesim.chain.yaw_plot import YawPlotData
 from nodesim.io.rundir import file_mode
 from nodesim.motion.timelines import ChainMotion
 from nodesim.scenario.schema import Scenario
@@ -151,11 +151,12 @@ class TimeseriesFile:
 
 class NodeStream:
     """The ``on_node`` of a streamed run (module docstring): writes each node's timeseries rows to ``table``
-    (None: none written), keeps its yaw-figure trace in :attr:`traces`, returns its summary."""
+    (None: none written), feeds the yaw figure's :attr:`plot`, returns its summary."""
 
     def __init__(self, scenario: Scenario, motion: ChainMotion, table: TimeseriesFile | None):
         self.scenario, self.motion, self.table = scenario, motion, table
-        self.traces: list[NodeTrace] = []
+        n, output = scenario.chain.nodes, scenario.output
+        self.plot = YawPlotData([i for i in range(1, n + 1) if output.keeps_node(i, n)], scenario.simulation.duration_s)
 
     def __call__(self, run: NodeRun, surveys: list[GroundSurvey]) -> NodeSummary:
         s = self.scenario
@@ -163,7 +164,7 @@ class NodeStream:
             rows = node_timeseries(run, 0, s.output.tick_step)
             if self.table is not None:
                 self.table.write(rows)
-            self.traces.append(node_trace(rows))
+            self.plot.add(rows)
         return NodeSummary(
             node_id=run.node_id,
             metrics=node_metrics(self.motion, run, s.metrics),

@@ -1,13 +1,14 @@
 """Yaw error and bias estimate of every node against time, one realization (like thesis figs 4.14 and 4.18).
 
-Drawn from per-node traces of the run's ``timeseries`` rows (:func:`nodesim.chain.run_tables.timeseries_columns`):
-:func:`node_trace` makes one from a node's rows, a streamed run makes them node by node while it writes the rows
-(:mod:`nodesim.chain.streaming`), :func:`traces_of_table` from a whole table, so a run loaded from its directory
-plots the same figure as the run that wrote it.  A trace keeps every tick up to :data:`TRACE_POINTS`; a longer
-node keeps, per bin of consecutive ticks, the ticks of its smallest and largest yaw error (min-max decimation:
-the envelope a line plot at the figure's width shows, without drawing every tick of a day).  With more than
-:data:`LEGEND_MAX_NODES` nodes the figure draws that many of them (evenly spread, the top and the bottom node
-among them) over a grey band: the smallest to largest yaw error of all nodes per time bin.  Built on
+Drawn from a :class:`YawPlotData` fed node by node with the run's ``timeseries`` rows
+(:func:`nodesim.chain.run_tables.timeseries_columns`): a streamed run feeds it while it writes the rows
+(:mod:`nodesim.chain.streaming`), :meth:`YawPlotData.from_table` from a whole table, so a run loaded from its
+directory plots the same figure as the run that wrote it.  Up to :data:`LEGEND_MAX_NODES` nodes every node is
+drawn; a longer chain draws that many of them (evenly spread over the nodes the table keeps, the top and the bottom
+node among them) over a grey band: the smallest to largest yaw error of all its nodes per time bin (of
+:data:`BAND_BINS` over the run).  A drawn node keeps every tick up to :data:`TRACE_POINTS` (:func:`node_trace`); a
+longer one keeps, per bin of consecutive ticks, the ticks of its smallest and largest yaw error (min-max decimation:
+the envelope a line plot at the figure's width shows, without drawing every tick of a day).  Built on
 :class:`matplotlib.figure.Figure` (no pyplot, no backend change); matplotlib is imported only when a figure is
 drawn.
 """
@@ -57,47 +58,75 @@ def node_trace(rows: Mapping[str, np.ndarray], max_points: int = TRACE_POINTS) -
     return NodeTrace(int(np.asarray(rows["node"])[0]), t, err, est, true)
 
 
-def traces_of_table(timeseries: Mapping[str, np.ndarray], max_points: int = TRACE_POINTS) -> list[NodeTrace]:
-    """One :func:`node_trace` per node of a whole timeseries table, in table order (top node first)."""
-    node = np.asarray(timeseries["node"])
-    if not node.size:
-        return []
-    starts = np.flatnonzero(np.concatenate([[True], node[1:] != node[:-1]]))
-    ends = np.concatenate([starts[1:], [node.size]])
-    keys = ("node", "t_s", "running", "yaw_error_deg", "bias_est_deg_s", "bias_true_deg_s")
-    cols = {k: np.asarray(timeseries[k]) for k in keys}
-    return [node_trace({k: v[a:b] for k, v in cols.items()}, max_points) for a, b in zip(starts, ends)]
+def shown_nodes(node_ids: Sequence[int]) -> list[int]:
+    """The node ids the figure draws: every one of ``node_ids`` (the nodes a table keeps, in table order) up to
+    LEGEND_MAX_NODES, else that many evenly spread (the first and the last among them)."""
+    if len(node_ids) <= LEGEND_MAX_NODES:
+        return list(node_ids)
+    pick = np.unique(np.round(np.linspace(0, len(node_ids) - 1, LEGEND_MAX_NODES)).astype(int))
+    return [node_ids[i] for i in pick]
 
 
-def _shown(traces: Sequence[NodeTrace]) -> list[NodeTrace]:
-    """Every trace, or LEGEND_MAX_NODES of them evenly spread (the first and the last among them)."""
-    if len(traces) <= LEGEND_MAX_NODES:
-        return list(traces)
-    pick = np.unique(np.round(np.linspace(0, len(traces) - 1, LEGEND_MAX_NODES)).astype(int))
-    return [traces[i] for i in pick]
+class YawPlotData:
+    """What the yaw figure needs of a run, fed one node's rows at a time (:meth:`add`, in table order): the traces
+    of the nodes it draws (:func:`shown_nodes` of ``node_ids``) and, for a longer chain, the band of every node's
+    yaw error over [0, ``duration_s``] (module docstring)."""
+
+    def __init__(self, node_ids: Sequence[int], duration_s: float):
+        self.node_ids = list(node_ids)
+        self.shown = set(shown_nodes(self.node_ids))
+        self.duration_s = float(duration_s)
+        self.traces: list[NodeTrace] = []
+        self.band = None
+        if len(self.shown) < len(self.node_ids):
+            self.band = (np.full(BAND_BINS, np.inf), np.full(BAND_BINS, -np.inf))
+
+    @classmethod
+    def from_table(cls, timeseries: Mapping[str, np.ndarray], duration_s: float) -> "YawPlotData":
+        """Fed with every node of a whole timeseries table."""
+        node = np.asarray(timeseries["node"])
+        starts = np.flatnonzero(np.concatenate([[True], node[1:] != node[:-1]])) if node.size else np.zeros(0, int)
+        ends = np.concatenate([starts[1:], [node.size]])
+        data = cls([int(node[a]) for a in starts], duration_s)
+        keys = ("node", "t_s", "running", "yaw_error_deg", "bias_est_deg_s", "bias_true_deg_s")
+        cols = {k: np.asarray(timeseries[k]) for k in keys}
+        for a, b in zip(starts, ends):
+            data.add({k: v[a:b] for k, v in cols.items()})
+        return data
+
+    def add(self, rows: Mapping[str, np.ndarray]) -> None:
+        """One node's rows (its timeseries columns)."""
+        node_id = int(np.asarray(rows["node"])[0])
+        if node_id in self.shown:
+            self.traces.append(node_trace(rows))
+        if self.band is None:
+            return
+        t, e = np.asarray(rows["t_s"], dtype=float), np.asarray(rows["yaw_error_deg"], dtype=float)
+        ok = np.asarray(rows["running"]).astype(bool) & np.isfinite(e)
+        if not ok.any():
+            return
+        t, e = t[ok], e[ok]  # in time order: each bin's points are one run of them
+        idx = np.clip((t / self.duration_s * BAND_BINS).astype(np.int64), 0, BAND_BINS - 1)
+        starts = np.flatnonzero(np.concatenate([[True], idx[1:] != idx[:-1]]))
+        bins = idx[starts]
+        lo, hi = self.band
+        lo[bins] = np.minimum(lo[bins], np.minimum.reduceat(e, starts))
+        hi[bins] = np.maximum(hi[bins], np.maximum.reduceat(e, starts))
+
+    def band_deg(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(bin centres [s], smallest, largest yaw error [deg]) of the bins any node had a point in, or None."""
+        if self.band is None:
+            return None
+        lo, hi = self.band
+        have = np.isfinite(lo)
+        centres = (np.arange(BAND_BINS) + 0.5) * self.duration_s / BAND_BINS
+        return (centres[have], lo[have], hi[have]) if have.any() else None
 
 
-def _band(traces: Sequence[NodeTrace]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(bin centres, smallest, largest yaw error) of all traces per time bin (bins without a point: NaN)."""
-    t = np.concatenate([x.t_s for x in traces])
-    e = np.concatenate([x.yaw_error_deg for x in traces])
-    ok = np.isfinite(t) & np.isfinite(e)
-    if not ok.any():
-        return None
-    t, e = t[ok], e[ok]
-    edges = np.linspace(t.min(), t.max() + 1e-9, BAND_BINS + 1)
-    idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, BAND_BINS - 1)
-    lo, hi = np.full(BAND_BINS, np.inf), np.full(BAND_BINS, -np.inf)
-    np.minimum.at(lo, idx, e)
-    np.maximum.at(hi, idx, e)
-    empty = ~np.isfinite(lo)
-    lo[empty], hi[empty] = np.nan, np.nan
-    return 0.5 * (edges[:-1] + edges[1:]), lo, hi
-
-
-def yaw_figure(traces: Sequence[NodeTrace], rotation_end_s: float, title: str):
-    """Top: yaw error [deg]; bottom: bias estimate [deg/s] with the true bias dashed, per node (module docstring);
-    the end of the last rotation as a dotted line.  Ticks where a node's filter is not running are not drawn."""
+def yaw_figure(data: YawPlotData, rotation_end_s: float, title: str):
+    """Top: yaw error [deg]; bottom: bias estimate [deg/s] with the true bias dashed, per drawn node (module
+    docstring); the end of the last rotation as a dotted line.  Ticks where a node's filter is not running are not
+    drawn."""
     import matplotlib
     from matplotlib.figure import Figure
 
@@ -105,11 +134,10 @@ def yaw_figure(traces: Sequence[NodeTrace], rotation_end_s: float, title: str):
     axes = fig.subplots(2, 1, sharex=True)
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     lo, hi = np.inf, -np.inf
-    shown = _shown(traces)
-    if len(shown) < len(traces):
-        band = _band(traces)
-        if band is not None:
-            axes[0].fill_between(band[0], band[1], band[2], color="0.8", lw=0, label=f"all {len(traces)} nodes")
+    band = data.band_deg()
+    if band is not None:
+        axes[0].fill_between(band[0], band[1], band[2], color="0.8", lw=0, label=f"all {len(data.node_ids)} nodes")
+    shown = data.traces
     for i, x in enumerate(shown):
         c = colors[i % len(colors)]
         label = f"node {x.node_id}"
@@ -129,7 +157,7 @@ def yaw_figure(traces: Sequence[NodeTrace], rotation_end_s: float, title: str):
     for ax in axes:
         ax.axvline(rotation_end_s, color="0.3", lw=0.6, ls=":")
         ax.grid(True, lw=0.3)
-    if shown and len(shown) <= LEGEND_MAX_NODES:
+    if shown:
         axes[0].legend(loc="best", fontsize=7, ncol=2)
     fig.suptitle(title)
     fig.tight_layout()

@@ -484,22 +484,57 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
         progress(0.5)  # phase 1 done; phase 2 reports node by node
     N = net.n_nodes
     surveys, summaries = list(net.ground), []
-    for n in range(N):
-        if net.nodes[n].sig is None:
-            net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)), ahead=range(n + ATTACH_AHEAD,
-                                                                               min(N, n + 2 * ATTACH_AHEAD)))
-        _run_node(net, n, out, links.bits, plan[:K[n], n])
-        if on_node is not None:
-            summaries.append(net.stream_node(n, on_node, surveys))
-            if n >= 2:
-                net.nodes[n - 2].release()
-        if progress is not None:
-            progress(0.5 + 0.5 * (n + 1) / N)
-    if on_node is None:
-        return net.result()
-    for node in net.nodes[-2:]:
-        node.release()
+    streams = _NodeOutputs(net, on_node, surveys) if on_node is not None else None
+    try:
+        for n in range(N):
+            if net.nodes[n].sig is None:
+                net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)), ahead=range(n + ATTACH_AHEAD,
+                                                                                   min(N, n + 2 * ATTACH_AHEAD)))
+            _run_node(net, n, out, links.bits, plan[:K[n], n])
+            if streams is not None:
+                streams.submit(n)
+                if n >= 2:  # the nodes below n - 1 no longer read node n - 2's estimates
+                    summaries.append(streams.finish(n - 2))
+            if progress is not None:
+                progress(0.5 + 0.5 * (n + 1) / N)
+        if streams is None:
+            return net.result()
+        for n in range(max(N - 2, 0), N):
+            summaries.append(streams.finish(n))
+    finally:
+        if streams is not None:
+            streams.close()
     return net.result(runs=(), surveys=surveys, summaries=tuple(summaries))
+
+
+class _NodeOutputs:
+    """A streamed run's node steps (:meth:`Network.stream_node`: the node's records, its surveys' frames, ``on_node``)
+    on one worker thread while phase 2 goes on with the next nodes, in node order (the table's order); with one
+    thread (``NODESIM_THREADS = 1``) in the calling thread.  :meth:`finish` waits for node ``n``'s step, drops its
+    arrays and returns its summary: the same values either way."""
+
+    def __init__(self, net, on_node: Callable, surveys: list):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.net, self.on_node, self.surveys = net, on_node, surveys
+        self.pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-outputs") if threads.thread_count() > 1 else None
+        self.pending: dict = {}
+
+    def submit(self, n: int) -> None:
+        if self.pool is None:
+            self.pending[n] = self.net.stream_node(n, self.on_node, self.surveys)
+        else:
+            self.pending[n] = self.pool.submit(self.net.stream_node, n, self.on_node, self.surveys)
+
+    def finish(self, n: int):
+        done = self.pending.pop(n)
+        summary = done if self.pool is None else done.result()
+        self.net.nodes[n].release()
+        return summary
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True)
 
 
 def _ground_surveys(net, senders: list, arrivals: tuple) -> None:
