@@ -39,6 +39,7 @@ from firmware_model import node_firmware as nf
 from nodesim.chain import bit_errors
 from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_node
 from nodesim.chain.compiled import tick_plan as tp
+from nodesim.chain.compiled.references import float_references
 from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
@@ -359,14 +360,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
     state, params = float_kernel.lane_states(node.kf), float_kernel.kernel_params(node.kf)
-    ask, t_read, yaw_enc, rate_enc = _encoder_reads(net, n, t, codes, out)
-    enc_ref = np.zeros((R, K) if ask.size else (1, 1))  # read at ASK ticks only: a stand-in for the other nodes
-    if ask.size:
-        enc_ref[:, ask] = yaw_enc - rate_enc * (t_read - t[ask])
-    src = src_node[:, n, :K]
-    offset = np.where(src >= 0, n - src, -1)
-    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
-    up = (tuple(a.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
+    enc_ref, offset, up = float_references(net, n, _encoder_reads(net, n, t, codes, out), src_node)
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)  # per range of realizations, summed below

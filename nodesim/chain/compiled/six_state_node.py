@@ -8,6 +8,7 @@ import numpy as np
 
 from nodesim import threads
 from nodesim.chain.compiled import six_state_float_kernel as ssk
+from nodesim.chain.compiled.references import float_references
 from nodesim.chain.six_state import SixStateLanes
 
 
@@ -20,14 +21,7 @@ def run(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, encoder_
     K = t.size
     node.kf = kf = SixStateLanes(net.scenario, sig, n_static, net.encoder.read(t[n_static])[0])
     node._record(n_static)
-    ask, t_read, yaw_enc, rate_enc = encoder_reads
-    enc_ref = np.zeros((R, K) if ask.size else (1, 1))
-    if ask.size:
-        enc_ref[:, ask] = yaw_enc - rate_enc * (t_read - t[ask])
-    src = src_node[:, n, :K]
-    offset = np.where(src >= 0, n - src, -1)
-    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
-    up = (tuple(a.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
+    enc_ref, offset, up = float_references(net, n, encoder_reads, src_node)
     rates = np.ascontiguousarray(kf.rates)
 
     def run_range(r0: int, r1: int) -> None:
