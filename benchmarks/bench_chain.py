@@ -24,10 +24,8 @@
   ``batched_mc_speedup_one_thread``: the same batch and the same single runs on one thread (``threads.limited(1)``, as
   ``NODESIM_THREADS=1`` would; what batching alone buys).
   ``batched_mc_speedup_event_engine``: the same on the SimPy engine.
-* ``chain1000_24h_wall_s_extrapolated``: a 1000-node chain of the perf scenario on the compiled engine for
-  the two durations of ``BIG_S`` (best of 2 each), EXTRAPOLATED to 24 h with the marginal cost per simulated second between
-  them (past the 50 s static window), and likewise the bytes of per-tick records the run keeps
-  (``chain1000_24h_records_gb_extrapolated``): what 1000 nodes x 24 h takes today.
+* ``drilling_day_1000_*``: :func:`drilling_day_1000` (the whole day of a 1000-tube string, run, not
+  extrapolated; it replaced the 1000-node 24 h extrapolation of earlier benchmarks once streamed runs could run it).
 """
 
 from importlib import resources
@@ -48,9 +46,6 @@ MC_NODES = 20
 MC_DURATION_S = 120.0
 MC_SAMPLE = 5
 MC_REPEAT = 5  # best of: this host's timings of the same call vary by up to 2x
-BIG_NODES = 1000
-BIG_S = (240.0, 960.0)  # far enough apart that the marginal cost stands out of the set-up's noise
-DAY_S = 24 * 3600.0
 
 
 def _scenario(folder: str, name: str):
@@ -233,24 +228,6 @@ def batched_mc_speedup() -> dict:
     }
 
 
-def chain1000_24h_extrapolated() -> dict:
-    from nodesim.chain.network import simulate_chain
-
-    perf = _scenario("perf", "chain100_1h.toml").with_overrides(**{"chain.nodes": BIG_NODES})
-    walls, records = [], []
-    for t in BIG_S:
-        run = simulate_chain(_sliced(perf, t))
-        walls.append(best_time_s(lambda: simulate_chain(_sliced(perf, t)), repeat=2))
-        records.append(sum(v.nbytes for n in run.nodes for v in vars(n).values() if hasattr(v, "nbytes")))
-    span = BIG_S[1] - BIG_S[0]
-    return {
-        "chain1000_240s_wall_s": walls[0],
-        "chain1000_960s_wall_s": walls[1],
-        "chain1000_24h_wall_s_extrapolated": walls[1] + (DAY_S - BIG_S[1]) * (walls[1] - walls[0]) / span,
-        "chain1000_24h_records_gb_extrapolated": (records[1] + (DAY_S - BIG_S[1]) * (records[1] - records[0]) / span) / 1e9,
-    }
-
-
 DAY_HOURS = {1: 793, 2: 802}
 """The drilling day's first hour and first two hours as runs of their own: the 785 tubes in the hole and the 8 (17)
 new ones the hour (two hours) inserts; with 400 s per new tube their programmes end at exactly 3600 s (7200 s)."""
@@ -340,7 +317,7 @@ def drilling_day_1000() -> dict:
 
 
 BENCHMARKS = [chain_drilling_batched_vs_loop, chain100_1h_overhead_vs_skeleton, batched_mc_speedup,
-              chain1000_24h_extrapolated, drilling_day_1000]
+              drilling_day_1000]
 
 
 if __name__ == "__main__":  # the skeleton as a process of its own: python bench_chain.py skeleton SCENARIO.toml
