@@ -470,6 +470,8 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
     net.engine = "compiled"
     links.store(stats)
+    del T  # phase 2 reads the nodes' own tick times; the draws were phase 1's (~28 bytes a node-tick between them)
+    links.buffer = links.start = None
     for i, node in enumerate(net.nodes):
         node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
     net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()
