@@ -217,16 +217,18 @@ class FirmwareLanes:
 
     SITES = nf.SITES  # the names of ``counts``
     INPUTS = nf.INPUTS  # the columns of ``inputs``
+    STATE_SIZE = nf.STATE_SIZE  # a lane's words
+    init_lane = staticmethod(nf.init_lane)  # a lane at power-up
 
     def __init__(self, config: FirmwareConfig, realizations: int):
         self.config = config
         params, fparams = _firmware_params(config)
         self.params, self.fparams = params.copy(), fparams.copy()
-        self.states = np.zeros((realizations, nf.STATE_SIZE), dtype=np.int64)
+        self.states = np.zeros((realizations, self.STATE_SIZE), dtype=np.int64)
         for r in range(realizations):
-            nf.init_lane(self.states[r])
-        self.counts = np.zeros(len(nf.SITES), dtype=np.int64)
-        self.inputs = np.zeros((realizations, len(nf.INPUTS)), dtype=np.int64)
+            self.init_lane(self.states[r])
+        self.counts = np.zeros(len(self.SITES), dtype=np.int64)
+        self.inputs = np.zeros((realizations, len(self.INPUTS)), dtype=np.int64)
         self.outputs = np.zeros((realizations, len(nf.OUTPUTS)), dtype=np.int64)
 
     def read_sensors(self, sig, k: int) -> None:

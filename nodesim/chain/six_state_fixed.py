@@ -26,16 +26,14 @@ class SixStateFirmwareLanes(FirmwareLanes):
 
     SITES = n6.SITES
     INPUTS = n6.INPUTS
+    STATE_SIZE = n6.STATE_SIZE
+    init_lane = staticmethod(n6.init_lane)
 
     def __init__(self, scenario: Scenario, realizations: int):
-        super().__init__(six_state_firmware_config(scenario)[0], realizations)
-        params6, lane0 = six_state_params(six_state_firmware_config(scenario)[1])
+        firmware, build6 = six_state_firmware_config(scenario)
+        super().__init__(firmware, realizations)
+        params6, lane0 = six_state_params(build6)
         self.params6, self.lane0 = params6.copy(), lane0.copy()
-        self.states = np.zeros((realizations, n6.STATE_SIZE), dtype=np.int64)
-        for r in range(realizations):
-            n6.init_lane(self.states[r])
-        self.counts = np.zeros(len(n6.SITES), dtype=np.int64)
-        self.inputs = np.zeros((realizations, len(n6.INPUTS)), dtype=np.int64)
         self.work = np.zeros(k6.WORK_SIZE, dtype=np.int64)
 
     def __repr__(self) -> str:
