@@ -25,7 +25,7 @@ from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.six_state_filter import SixStateFilterConfig
 from firmware_model.fixedpoint import QFormat
 from firmware_model.six_state_fixed import SixStateFixedConfig, SixStateFixedFormats
-from firmware_model.six_state_node import check_formats as check_six_state_formats
+from firmware_model.six_state_firmware import check_formats as check_six_state_formats
 from firmware_model.yaw_filter import (
     YawFilter,
     YawFilterConfig,
@@ -42,7 +42,7 @@ from nodesim.units import DEG
 def require_engine_filter(scenario: Scenario) -> None:
     """Check the node filter a run will drive: for ``filter.states = 6`` (both chain engines run it, the float filter
     of :mod:`nodesim.chain.six_state` or, with ``filter.implementation = "fixed"``, the fixed-point node firmware of
-    :mod:`firmware_model.six_state_node`; issue 24) its 6-state tuning and, fixed, its build, so a bad one is reported
+    :mod:`firmware_model.six_state_firmware`; issue 24) its 6-state tuning and, fixed, its build, so a bad one is reported
     before any work."""
     if scenario.filter.states == 6:
         six_state_config(scenario)
@@ -152,7 +152,7 @@ roll and pitch gains K = P h^T / S reach tens (the float chain's, 4 nodes at 2 d
 
 
 def six_state_firmware_config(scenario: Scenario) -> tuple[FirmwareConfig, SixStateFixedConfig]:
-    """The builds a fixed-point 6-state node runs (:mod:`firmware_model.six_state_node`): the 2-state firmware's
+    """The builds a fixed-point 6-state node runs (:mod:`firmware_model.six_state_firmware`): the 2-state firmware's
     (its reference advance, R, the estimate frame's and the survey's words, on the z-axis tuning) and the 6-state
     filter's (:class:`firmware_model.six_state_fixed.SixStateFixedConfig` of :func:`six_state_config`, with the
     ``firmware.cordic_iterations`` the survey uses: one CORDIC build); errors name the key."""
@@ -233,7 +233,7 @@ class FirmwareLanes:
 
     def read_sensors(self, sig, k: int) -> None:
         """The tick's sensor inputs beyond the z gyro sum :meth:`tick` takes: none for the 2-state firmware (the
-        6-state node's reads its other axes, :class:`nodesim.chain.six_state_fixed.SixStateFirmwareLanes`)."""
+        6-state node's reads its other axes, :class:`nodesim.chain.six_state_firmware_lanes.SixStateFirmwareLanes`)."""
 
     def tick(self, phase: int, gyro_z_sum, n, yaw0_raw=0, ref=None, ref_yaw_raw=0, ref_aux_raw=0, transfer_us=0):
         """One firmware tick of every lane; ``ref`` (R,) the kind of reference per lane (NO_REF where None)."""

@@ -46,7 +46,7 @@ from nodesim.motion.timelines import NodeTimeline
 from nodesim.chain.packets import EstimatePacket, SurveyPacket, estimate_frame, select_reference
 from nodesim.chain.sensing import NodeSignals
 from nodesim.chain.six_state import SixStateLanes
-from nodesim.chain.six_state_fixed import firmware_lanes
+from nodesim.chain.six_state_firmware_lanes import firmware_lanes
 
 
 class ChainWorld(Protocol):

@@ -24,7 +24,7 @@ from numba import njit
 
 from firmware_model import fixed_kernel as fxk
 from firmware_model import node_firmware as nf
-from firmware_model import six_state_node as n6
+from firmware_model import six_state_firmware as n6
 from nodesim.chain.compiled import float_kernel as flk
 from nodesim.chain.compiled import tick_plan as tp
 
@@ -92,7 +92,7 @@ def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_
                       inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var, bias, ref_yaw, ref_var, r_first,
                       r_end, six, params6, lane0, work) -> None:
     """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`, or with ``six`` the 6-state node's
-    :func:`firmware_model.six_state_node.node_tick`: ``params6``, ``lane0``, ``work`` its build, initial lane and
+    :func:`firmware_model.six_state_firmware.node_tick`: ``params6``, ``lane0``, ``work`` its build, initial lane and
     scratch) of one node over ticks 0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``, each tick as
     ``codes`` says (:mod:`.tick_plan`): static window, the filter's start, holding, or predict and the reference
     phase 1 chose (the encoder reply read ``enc_back_us``

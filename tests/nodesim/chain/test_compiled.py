@@ -277,7 +277,7 @@ SIX_STATE = {  # the float 6-state filter (issue 24): lab spin at 2 and 45 deg, 
                                                     "schedule.timeout_s": 10.0},
 }
 FIXED6 = {"filter.states": 6, "filter.implementation": "fixed"}
-SIX_STATE.update({  # the fixed-point 6-state node firmware (firmware_model.six_state_node)
+SIX_STATE.update({  # the fixed-point 6-state node firmware (firmware_model.six_state_firmware)
     "fixed 6-state, 2 deg, lossy hops": {**LOSSY, **FIXED6},
     "fixed 6-state, 45 deg, every tick, extrapolated": {**CASES["every tick, extrapolated rate"], **FIXED6,
                                                         "motion.inclination_deg": 45.0},

@@ -1,4 +1,4 @@
-"""The fixed-point 6-state node firmware (firmware_model.six_state_node, issue 24): its twist c(phi, theta) and row h, its twist
+"""The fixed-point 6-state node firmware (firmware_model.six_state_firmware, issue 24): its twist c(phi, theta) and row h, its twist
 update and its levelled start follow the float 6-state chain filter (nodesim.chain.compiled.six_state_float_kernel,
 itself checked against firmware_model.six_state_filter) to the rounding of its formats and the CORDIC; a build
 whose sent words differ from the filter's formats is refused; in the chain it keeps the float chain's accuracy and
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from firmware_model import six_state_kernel as k6
-from firmware_model import six_state_node as n6
+from firmware_model import six_state_firmware as n6
 from firmware_model import fixed_kernel as fk
 from firmware_model import node_firmware as nf
 from firmware_model.errors import FirmwareError
@@ -22,7 +22,7 @@ from nodesim.chain.estimator import six_state_firmware_config, six_state_params
 from nodesim.chain.metrics import per_realization_metrics, summarize
 from nodesim.chain.network import simulate_chain
 from nodesim.chain.six_state import level_attitude
-from nodesim.chain.six_state_fixed import SixStateFirmwareLanes
+from nodesim.chain.six_state_firmware_lanes import SixStateFirmwareLanes
 from nodesim.scenario.schema import Scenario
 from nodesim.sensors.chain_imu import ChainImu, sensor_force
 

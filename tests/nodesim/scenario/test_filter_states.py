@@ -146,7 +146,7 @@ def test_firmware_export_refuses_six_states(lab_toml, tmp_path, capsys):
 
 
 def test_a_run_with_the_fixed_six_state_filter_writes_its_run_directory(lab_toml, tmp_path, capsys):
-    """The fixed-point 6-state node firmware (firmware_model.six_state_node) runs through the CLI: its summary
+    """The fixed-point 6-state node firmware (firmware_model.six_state_firmware) runs through the CLI: its summary
     counts the saturations and the singular ticks (none at the lab's 2 deg) like the other builds'."""
     text = _short(lab_toml.read_text())
     assert "[filter]" in text and 'implementation = "float"' in text

@@ -1,10 +1,10 @@
 """The chain's fixed-point 6-state node (issue 24, ``filter.states = 6``, ``filter.implementation = "fixed"``): the
-node firmware of :mod:`firmware_model.six_state_node` in every realization, with the interface of the 2-state
+node firmware of :mod:`firmware_model.six_state_firmware` in every realization, with the interface of the 2-state
 :class:`nodesim.chain.estimator.FirmwareLanes`, so both chain engines treat it as they treat the 2-state firmware.
 
 It reads the same words in the same slots (the twist as the yaw word, h P h^T as the P_yy word, the z bias, the
-running flag: :mod:`firmware_model.six_state_node`'s state layout), takes the 2-state firmware's inputs plus the
-tick's x, y gyro sums and x, y, z accelerometer sums (:meth:`read_sensors`), and names its overflow sites :data:`six_state_node.SITES`
+running flag: :mod:`firmware_model.six_state_firmware`'s state layout), takes the 2-state firmware's inputs plus the
+tick's x, y gyro sums and x, y, z accelerometer sums (:meth:`read_sensors`), and names its overflow sites :data:`firmware_model.six_state_firmware.SITES`
 (the 6-state filter's prefixed "6-state ").  The SimPy engine drives it tick by tick (:meth:`tick`); the compiled
 engine runs the same njit tick in :func:`nodesim.chain.compiled.filters.run_node_firmware`.
 """
@@ -15,7 +15,7 @@ import numpy as np
 
 from firmware_model import node_firmware as nf
 from firmware_model import six_state_kernel as k6
-from firmware_model import six_state_node as n6
+from firmware_model import six_state_firmware as n6
 from nodesim.chain.estimator import FirmwareLanes, firmware_config, six_state_firmware_config, six_state_params
 from nodesim.scenario.schema import Scenario
 
