@@ -23,6 +23,9 @@ from firmware_model.errors import FirmwareError
 from firmware_model.fixed_filter import FixedFormats
 from firmware_model.filter_factory import make_yaw_filter
 from firmware_model.six_state_filter import SixStateFilterConfig
+from firmware_model.fixedpoint import QFormat
+from firmware_model.six_state_fixed import SixStateFixedConfig, SixStateFixedFormats
+from firmware_model.six_state_firmware import check_formats as check_six_state_formats
 from firmware_model.yaw_filter import (
     YawFilter,
     YawFilterConfig,
@@ -37,17 +40,14 @@ from nodesim.units import DEG
 
 
 def require_engine_filter(scenario: Scenario) -> None:
-    """Check the node filter a run will drive: for ``filter.states = 6`` (the float 6-state filter both chain engines
-    run, :mod:`nodesim.chain.six_state`; issue 24) its 6-state tuning, so a bad one is reported before any work.
-    The fixed-point 6-state filter (:mod:`firmware_model.six_state_fixed`) is not run by the chain engines yet: a
-    run with it is refused, naming the key."""
+    """Check the node filter a run will drive: for ``filter.states = 6`` (both chain engines run it, the float filter
+    of :mod:`nodesim.chain.six_state` or, with ``filter.implementation = "fixed"``, the fixed-point node firmware of
+    :mod:`firmware_model.six_state_firmware`; issue 24) its 6-state tuning and, fixed, its build, so a bad one is reported
+    before any work."""
     if scenario.filter.states == 6:
-        if scenario.filter.implementation == "fixed":
-            raise NodesimError(
-                "filter.states = 6 with filter.implementation = 'fixed': the fixed-point 6-state filter "
-                "(firmware_model.six_state_fixed) is not run by the chain engines yet; allowed for a run with "
-                "states = 6: filter.implementation = 'float'")
         six_state_config(scenario)
+        if scenario.filter.implementation == "fixed":
+            six_state_firmware_config(scenario)
 
 
 def six_state_config(scenario: Scenario) -> SixStateFilterConfig:
@@ -125,10 +125,14 @@ def tick_gyro_sigma_rad_s(scenario: Scenario) -> float:
 def firmware_config(scenario: Scenario) -> FirmwareConfig:
     """The fixed-point firmware build of ``scenario``: what a run simulates and ``nodesim firmware export-config``
     writes as a C header."""
+    return _firmware_build(scenario, filter_config(scenario))
+
+
+def _firmware_build(scenario: Scenario, yaw_config: YawFilterConfig) -> FirmwareConfig:
     c = scenario.chain
     sigma_rate_rad_s = tick_gyro_sigma_rad_s(scenario)
     return FirmwareConfig(
-        filter=filter_config(scenario),
+        filter=yaw_config,
         formats=FixedFormats().with_word_length(scenario.filter.fixed_word_bits),
         gyro_full_scale_dps=getattr(scenario.sensor, "gyro_full_scale_dps", 250),
         sigma_rate_rad_s=float(sigma_rate_rad_s),
@@ -139,6 +143,38 @@ def firmware_config(scenario: Scenario) -> FirmwareConfig:
         cordic_iterations=scenario.firmware.cordic_iterations,
         survey_points=scenario.filter.moving_average_points,
     )
+
+
+CHAIN_SIX_STATE_FORMATS = SixStateFixedFormats(gain_angle=QFormat(32, 24))
+"""The chain's 6-state build: the default formats but the angle gains in Q8.24 (+/- 128): under the twist update the
+roll and pitch gains K = P h^T / S reach tens (the float chain's, 4 nodes at 2 deg, lab profile, 3 realizations:
+35.5 and 44.3, the yaw's 2.25; the roll/pitch variances are far larger than the twist's), beyond Q2.30's +/- 2."""
+
+
+def six_state_firmware_config(scenario: Scenario) -> tuple[FirmwareConfig, SixStateFixedConfig]:
+    """The builds a fixed-point 6-state node runs (:mod:`firmware_model.six_state_firmware`): the 2-state firmware's
+    (its reference advance, R, the estimate frame's and the survey's words, on the z-axis tuning) and the 6-state
+    filter's (:class:`firmware_model.six_state_fixed.SixStateFixedConfig` of :func:`six_state_config`, with the
+    ``firmware.cordic_iterations`` the survey uses: one CORDIC build); errors name the key."""
+    f = scenario.filter
+    if f.fixed_word_bits != 32:
+        raise NodesimError(f"filter.fixed_word_bits = {f.fixed_word_bits} with filter.states = 6: the fixed-point "
+                           "6-state filter is built for 32-bit words; allowed: 32")
+    try:
+        build6 = SixStateFixedConfig.from_filter_config(six_state_config(scenario), formats=CHAIN_SIX_STATE_FORMATS,
+                                                        cordic_iterations=scenario.firmware.cordic_iterations)
+        firmware = _firmware_build(scenario, _yaw_filter_config(scenario))
+        check_six_state_formats(_firmware_params(firmware)[1], six_state_params(build6)[0])
+    except FirmwareError as err:
+        raise NodesimError(f"filter (states = 6, implementation = 'fixed'): {err}") from None
+    return firmware, build6
+
+
+@functools.lru_cache(maxsize=8)
+def six_state_params(build: SixStateFixedConfig) -> tuple[np.ndarray, np.ndarray]:
+    """``build.params()`` and its initial lane (P0: :meth:`SixStateFixedConfig.initial_state`), built once per
+    build (a chain's nodes share one); callers take copies."""
+    return build.params(), build.initial_state()
 
 
 def alignment_window_s(scenario: Scenario) -> tuple[float, float] | None:
@@ -179,16 +215,25 @@ class FirmwareLanes:
     """One node's fixed-point firmware in every realization (:func:`firmware_model.node_firmware.node_tick` per
     lane); the SimPy engine's view of what the compiled engine runs in its loop."""
 
+    SITES = nf.SITES  # the names of ``counts``
+    INPUTS = nf.INPUTS  # the columns of ``inputs``
+    STATE_SIZE = nf.STATE_SIZE  # a lane's words
+    init_lane = staticmethod(nf.init_lane)  # a lane at power-up
+
     def __init__(self, config: FirmwareConfig, realizations: int):
         self.config = config
         params, fparams = _firmware_params(config)
         self.params, self.fparams = params.copy(), fparams.copy()
-        self.states = np.zeros((realizations, nf.STATE_SIZE), dtype=np.int64)
+        self.states = np.zeros((realizations, self.STATE_SIZE), dtype=np.int64)
         for r in range(realizations):
-            nf.init_lane(self.states[r])
-        self.counts = np.zeros(len(nf.SITES), dtype=np.int64)
-        self.inputs = np.zeros((realizations, len(nf.INPUTS)), dtype=np.int64)
+            self.init_lane(self.states[r])
+        self.counts = np.zeros(len(self.SITES), dtype=np.int64)
+        self.inputs = np.zeros((realizations, len(self.INPUTS)), dtype=np.int64)
         self.outputs = np.zeros((realizations, len(nf.OUTPUTS)), dtype=np.int64)
+
+    def read_sensors(self, sig, k: int) -> None:
+        """The tick's sensor inputs beyond the z gyro sum :meth:`tick` takes: none for the 2-state firmware (the
+        6-state node's reads its other axes, :class:`nodesim.chain.six_state_firmware_lanes.SixStateFirmwareLanes`)."""
 
     def tick(self, phase: int, gyro_z_sum, n, yaw0_raw=0, ref=None, ref_yaw_raw=0, ref_aux_raw=0, transfer_us=0):
         """One firmware tick of every lane; ``ref`` (R,) the kind of reference per lane (NO_REF where None)."""
@@ -201,8 +246,11 @@ class FirmwareLanes:
         x[:, nf.IN_REF_YAW] = ref_yaw_raw
         x[:, nf.IN_REF_AUX] = ref_aux_raw
         x[:, nf.IN_TRANSFER] = transfer_us
-        nf.node_tick_lanes(self.states, self.params, self.fparams, self.counts, x, self.outputs)
+        self._step()
         return self.outputs
+
+    def _step(self) -> None:
+        nf.node_tick_lanes(self.states, self.params, self.fparams, self.counts, self.inputs, self.outputs)
 
     @property
     def yaw_raw(self) -> np.ndarray:
@@ -229,7 +277,7 @@ class FirmwareLanes:
 
     @property
     def overflow_counts(self) -> dict[str, int]:
-        return {nf.SITES[i]: int(c) for i, c in enumerate(self.counts) if c}
+        return {self.SITES[i]: int(c) for i, c in enumerate(self.counts) if c}
 
 
 def yaw_rad_of_raw(yaw_raw, fparams) -> np.ndarray:

@@ -419,7 +419,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         adc_clipped_samples=node.sig.gyro_clipped_samples + node.sig.accel_clipped_samples,
         estimate_frames=node.frames,
         reference_error_rad=node.sig.reference_error_rad,
-        singular_ticks=getattr(node.kf, "singular_ticks", None),
+        singular_ticks=getattr(node.kf if node.kf is not None else node.fw, "singular_ticks", None),
     )
 
 

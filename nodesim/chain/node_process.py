@@ -41,12 +41,12 @@ import numpy as np
 from firmware_model import fixed_kernel as fk
 from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
-from nodesim.chain.estimator import (FirmwareLanes, firmware_config, forwarded_reference, new_filter, rate_estimate,
-                                     timer_us, yaw_rad_of_raw)
+from nodesim.chain.estimator import forwarded_reference, new_filter, rate_estimate, timer_us, yaw_rad_of_raw
 from nodesim.motion.timelines import NodeTimeline
 from nodesim.chain.packets import EstimatePacket, SurveyPacket, estimate_frame, select_reference
 from nodesim.chain.sensing import NodeSignals
 from nodesim.chain.six_state import SixStateLanes
+from nodesim.chain.six_state_firmware_lanes import firmware_lanes
 
 
 class ChainWorld(Protocol):
@@ -112,7 +112,7 @@ class ChainNode:
         self.sig = signals
         self.inbox: list[EstimatePacket] = []
         self.last_seq = np.full(R, -1, dtype=np.int64)
-        self.fw = FirmwareLanes(firmware_config(net.scenario), R) if self.fixed else None
+        self.fw = firmware_lanes(net.scenario, R) if self.fixed else None  # 2- or 6-state
         # the fixed firmware's binary angle and P_yy raws per tick (the survey and the frames use them)
         self.yaw_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
         self.var_raw = np.zeros((R, K), dtype=np.int64) if self.fixed else None
@@ -193,6 +193,7 @@ class ChainNode:
         as the float path below, on the tick's gyro counts; False in the static window."""
         fw, sig, tl = self.fw, self.sig, self.timeline
         gz, n = sig.gyro_counts[:, k, 2], sig.samples[k]
+        fw.read_sensors(sig, k)
         if t < tl.filter_start_s:
             fw.tick(nf.STATIC, gz, n)
             self.yaw[:, k] = self.net.encoder.read(t)[0]

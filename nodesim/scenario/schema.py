@@ -217,7 +217,8 @@ class FilterSection(_Section):
     ``states`` picks the filter: 2 (yaw, z bias: the near-vertical form) or 6 (the thesis's roll, pitch, yaw and
     three biases, eqs 3.22-3.26: firmware_model.six_state_filter, issue 24).  The 6-state filter exists in float
     (both chain engines run it) and in fixed point (firmware_model.six_state_fixed: "rotation" only, 32-bit words),
-    which the chain engines do not run yet: a run with ``states = 6`` and ``implementation = "fixed"`` is refused.  ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
+    both chain engines run as the node firmware of firmware_model.six_state_firmware with ``implementation = "fixed"``.
+    ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
 
     states: Literal[2, 6] = Field(
         2, description="node filter states: 2 = (yaw, z-gyro bias), the near-vertical form; 6 = the thesis's (roll, "

@@ -36,8 +36,9 @@ from nodesim.chain.compiled import events as ev
 from firmware_model import fixed_kernel
 from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
+from firmware_model import six_state_fixed as six_state
 from nodesim.chain import bit_errors
-from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_node
+from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.references import float_references
 from nodesim.chain.packets import SurveyPacket
@@ -350,7 +351,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     if not starts.size:
         return
     n_static = int(starts[0])
-    if net.scenario.filter.states == 6:  # the float 6-state filter (issue 24)
+    if net.scenario.filter.states == 6 and net.scenario.filter.implementation != "fixed":  # float 6-state (issue 24)
         six_state_node.run(net, n, out, k_end, n_static, codes, _encoder_reads(net, n, t, codes, out))
         return
     if net.scenario.filter.implementation == "fixed":
@@ -419,19 +420,21 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     up_frames = _received_frames(net, n, above, offset, src_tick[:, n, :K], bits)
-    inp, res = np.zeros((R, len(nf.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+    inp, res = np.zeros((R, len(fw.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+    six = six_state_fixed_node.build(fw)  # (is 6-state, its build, initial lane): the fixed 6-state node's tick
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
     k_first = n_static + 1  # the first tick that may take a reference or send a frame
 
     def run(r0: int, r1: int) -> np.ndarray:
-        counts = np.zeros(len(nf.SITES), dtype=np.int64)  # per range of realizations, summed below
+        counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
         if n > 0:
             frame_pass.receive_frames(offset, src_tick[:, n, :K], k_first, k_end, up_frames, *rx, words, r0, r1)
-        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts,
-                                  np.ascontiguousarray(sig.gyro_counts[:, :, 2]), sig.samples, t, codes, k_end,
+        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts,
+                                  sig.samples, t, codes, k_end,
                                   node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
                                   tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
-                                  bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
+                                  bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *six,
+                                  six_state.new_work())
         return counts
 
     fw.counts += sum(threads.map_chunks(run, R))

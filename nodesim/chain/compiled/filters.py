@@ -24,6 +24,7 @@ from numba import njit
 
 from firmware_model import fixed_kernel as fxk
 from firmware_model import node_firmware as nf
+from firmware_model import six_state_firmware as n6
 from nodesim.chain.compiled import float_kernel as flk
 from nodesim.chain.compiled import tick_plan as tp
 
@@ -86,24 +87,30 @@ def sequential_sum(gyro, stop: int):
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t, codes, k_end, applied,
+def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_samples, t, codes, k_end, applied,
                       enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, rx_yaw_raw, rx_var_raw,
                       inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var, bias, ref_yaw, ref_var, r_first,
-                      r_end) -> None:
-    """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`) of one node over ticks
-    0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``, each tick as ``codes`` says (:mod:`.tick_plan`):
-    static window, the filter's start, holding, or predict and the reference phase 1 chose (the encoder reply read ``enc_back_us``
+                      r_end, six, params6, lane0, work) -> None:
+    """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`, or with ``six`` the 6-state node's
+    :func:`firmware_model.six_state_firmware.node_tick`: ``params6``, ``lane0``, ``work`` its build, initial lane and
+    scratch) of one node over ticks 0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``, each tick as
+    ``codes`` says (:mod:`.tick_plan`): static window, the filter's start, holding, or predict and the reference
+    phase 1 chose (the encoder reply read ``enc_back_us``
     after the tick for the top node; for the others ``rx_*_raw[r, k]``, the yaw and P_yy words decoded from the
-    estimate frame node n - s sent at its tick j, :func:`.frame_pass.receive_frames`).  Records the yaw, P_yy,
-    rate and bias raws (the words of the frame it sends, :func:`.frame_pass.send_frames`) and the floats the SimPy
-    engine records.  ``inp``/``out``: (R, len(INPUTS)) / (R, len(OUTPUTS)) work rows, one per realization."""
+    estimate frame node n - s sent at its tick j, :func:`.frame_pass.receive_frames`).  ``gyro_sums``,
+    ``accel_sums`` (R, K, 3): the tick's count sums (the 2-state firmware reads the z gyro's).  Records the yaw,
+    P_yy, rate and bias raws (the words of the frame it sends, :func:`.frame_pass.send_frames`) and the floats the
+    SimPy engine records.  ``inp``/``out``: (R, len(INPUTS)) / (R, len(OUTPUTS)) work rows, one per realization."""
     fy, fyy, fb = fparams[fxk.W_YAW + 1], fparams[fxk.W_YY + 1], fparams[fxk.W_BIAS + 1]
     for r in range(r_first, r_end):
         st, x, o = states[r], inp[r], out[r]
-        nf.init_lane(st)
+        if six:
+            n6.init_lane(st)
+        else:
+            nf.init_lane(st)
         for k in range(k_end):
             c = codes[k]
-            x[nf.IN_GZ], x[nf.IN_N], x[nf.IN_REF] = gyro_z_sum[r, k], n_samples[k], nf.NO_REF
+            x[nf.IN_GZ], x[nf.IN_N], x[nf.IN_REF] = gyro_sums[r, k, 2], n_samples[k], nf.NO_REF
             if c == tp.STATIC:
                 x[nf.IN_PHASE] = nf.STATIC
             elif c == tp.START:
@@ -120,7 +127,13 @@ def run_node_firmware(states, params, fparams, counts, gyro_z_sum, n_samples, t,
                     s, j = src_node[r, k] - 1, src_tick[r, k]
                     x[nf.IN_REF], x[nf.IN_REF_YAW], x[nf.IN_REF_AUX] = nf.FORWARDED_REF, rx_yaw_raw[r, k], rx_var_raw[r, k]
                     x[nf.IN_TRANSFER] = np.int64(np.rint((t[k] - up_t[s][j]) * 1e6))  # estimator.timer_us
-            nf.node_tick(st, params, fparams, counts, x, o)
+            if six:
+                x[n6.IN_GX], x[n6.IN_GY] = gyro_sums[r, k, 0], gyro_sums[r, k, 1]
+                for i in range(3):
+                    x[n6.IN_AX + i] = accel_sums[r, k, i]
+                n6.node_tick(st, params6, lane0, params, fparams, counts, x, o, work)
+            else:
+                nf.node_tick(st, params, fparams, counts, x, o)
             if c == tp.STATIC:  # the static window reports the encoder's yaw (its survey's azimuth reference)
                 yaw_raw[r, k] = enc_yaw_raw[r, k]
                 continue

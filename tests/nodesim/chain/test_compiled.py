@@ -276,6 +276,16 @@ SIX_STATE = {  # the float 6-state filter (issue 24): lab spin at 2 and 45 deg, 
                                                     "schedule.mode": "windowed", "schedule.update_s": 20.0,
                                                     "schedule.timeout_s": 10.0},
 }
+FIXED6 = {"filter.states": 6, "filter.implementation": "fixed"}
+SIX_STATE.update({  # the fixed-point 6-state node firmware (firmware_model.six_state_firmware)
+    "fixed 6-state, 2 deg, lossy hops": {**LOSSY, **FIXED6},
+    "fixed 6-state, 45 deg, every tick, extrapolated": {**CASES["every tick, extrapolated rate"], **FIXED6,
+                                                        "motion.inclination_deg": 45.0},
+    "fixed 6-state, dead node, fallback": {**CASES["dead node, fallback"], **FIXED6},
+    "fixed 6-state, drilling, lossy hops": {**DRILL_LOSSY, **FIXED6},
+    "fixed 6-state, 89 deg, decouple": {**BASE, **FIXED6, "motion.inclination_deg": 89.0,
+                                        "filter.singularity": "decouple"},
+})
 
 
 @pytest.mark.parametrize("name", list(SIX_STATE))
@@ -288,6 +298,7 @@ def test_compiled_engine_matches_the_event_engine_with_six_states(name):
         assert sum(int(n.singular_ticks.sum()) for n in compiled.nodes) > 0  # the singular path was compared too
 
 
-def test_six_state_runs_are_deterministic():
-    s = Scenario().with_overrides(**SIX_STATE["6-state, drilling, lossy hops"])
+@pytest.mark.parametrize("name", ["6-state, drilling, lossy hops", "fixed 6-state, drilling, lossy hops"])
+def test_six_state_runs_are_deterministic(name):
+    s = Scenario().with_overrides(**SIX_STATE[name])
     assert_identical(simulate_chain(s), simulate_chain(s))
