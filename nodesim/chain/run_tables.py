@@ -37,6 +37,8 @@ TIMESERIES_COLUMNS = ("node", "t_s", "running", "update", "update_age_s", "true_
 def node_timeseries(node, r: int = 0, step: int = 1) -> dict[str, np.ndarray]:
     """Realization ``r``'s per-tick records of one node (:class:`~nodesim.chain.records.NodeRun`), every
     ``step``-th tick: its rows of the timeseries table."""
+    with np.errstate(invalid="ignore"):  # a diverged filter's negative variance: its sigma is NaN in the table
+        sigma_deg = rad_to_deg(np.sqrt(node.yaw_var_rad2[r]))
     part = {
         "node": np.full(node.t_s.size, node.node_id),
         "t_s": node.t_s,
@@ -48,7 +50,7 @@ def node_timeseries(node, r: int = 0, step: int = 1) -> dict[str, np.ndarray]:
         "true_azimuth_deg": rad_to_deg(node.true_azimuth_rad),
         "yaw_est_deg": rad_to_deg(node.yaw_est_rad[r]),
         "yaw_error_deg": rad_to_deg(wrap_pi(node.yaw_est_rad[r] - node.true_yaw_rad)),
-        "yaw_sigma_deg": rad_to_deg(np.sqrt(node.yaw_var_rad2[r])),
+        "yaw_sigma_deg": sigma_deg,
         "bias_true_deg_s": rad_to_deg(node.true_bias_rad_s[r]),
         "bias_est_deg_s": rad_to_deg(node.bias_est_rad_s[r]),
         "inclination_deg": rad_to_deg(node.inclination_rad[r]),

@@ -144,3 +144,17 @@ def test_a_long_trace_keeps_each_bins_smallest_and_largest_yaw_error():
         assert start + int(block.argmax()) in kept and start + int(block.argmin()) in kept
     short = {k: v[:100] for k, v in rows.items()}
     assert np.array_equal(node_trace(short).yaw_error_deg, err[:100])  # short nodes: every tick
+
+
+def test_a_negative_variance_gives_a_nan_sigma_without_a_warning_per_node(recwarn):
+    """A diverged filter (the 6-state chain in a long rotating string, docs/deviated_wells.md) can report a negative
+    yaw variance: its row's sigma is NaN, and the table does not print a numpy warning for every node."""
+    from nodesim.chain.run_tables import node_timeseries
+
+    scenario = _scenario(LAB, **{"chain.nodes": 1, "simulation.duration_s": 120.0, "metrics.window_start_s": 60.0,
+                                 "metrics.window_end_s": 120.0})
+    node = simulate_chain(scenario).nodes[0]
+    node.yaw_var_rad2[0, -1] = -1e-6
+    rows = node_timeseries(node)
+    assert np.isnan(rows["yaw_sigma_deg"][-1]) and np.isfinite(rows["yaw_sigma_deg"][-2])
+    assert not [w for w in recwarn.list if issubclass(w.category, RuntimeWarning)]
