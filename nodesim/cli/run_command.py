@@ -83,9 +83,15 @@ def run(args) -> int:
 def stream_stage(out: Path) -> Path:
     """A new private directory ``.<name>.stream-XXXX`` beside the run directory ``out`` (same file system: the
     streamed table is renamed into the run directory, never copied)."""
+    from nodesim.errors import NodesimError
+
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    return Path(tempfile.mkdtemp(prefix=f".{out.name}.stream-", dir=out.parent))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        return Path(tempfile.mkdtemp(prefix=f".{out.name}.stream-", dir=out.parent))
+    except OSError as err:
+        raise NodesimError(f"{out}: cannot write beside it in {out.parent} ({err.strerror}); give a run directory "
+                           "(--out) in a writable place") from None
 
 
 PER_NODE = re.compile(r"^(node|hop)(\d+)_")

@@ -158,3 +158,13 @@ def test_a_negative_variance_gives_a_nan_sigma_without_a_warning_per_node(recwar
     rows = node_timeseries(node)
     assert np.isnan(rows["yaw_sigma_deg"][-1]) and np.isfinite(rows["yaw_sigma_deg"][-2])
     assert not [w for w in recwarn.list if issubclass(w.category, RuntimeWarning)]
+
+
+def test_a_run_directory_that_cannot_be_made_is_a_clear_error_before_any_work(tmp_path, capsys):
+    """--out under a file (its parent cannot be a directory): one line naming it, exit 2, nothing written."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    code = main(["run", str(LAB), "--out", str(blocker / "run"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "cannot write beside it" in err and "--out" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
