@@ -17,8 +17,6 @@ scale with the run's node-ticks; the records of phase 2, the sensors' readings a
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 import queue
 import tempfile
@@ -32,7 +30,7 @@ from nodesim.chain.metrics import node_metrics
 from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
 from nodesim.chain.run_tables import TIMESERIES_COLUMNS, empty_timeseries, node_timeseries, node_survey_rows
 from nodesim.chain.yaw_plot import YawPlotData
-from nodesim.io.rundir import file_mode
+from nodesim.io.rundir import csv_text, file_mode
 from nodesim.motion.timelines import ChainMotion
 from nodesim.scenario.schema import Scenario
 
@@ -45,11 +43,11 @@ the file 25 % larger and its writing twice as slow)."""
 
 class TimeseriesFile:
     """The timeseries table written block by block to ``path`` (``fmt`` "parquet": a row group per block,
-    :data:`PARQUET_OPTIONS`; "csv": the rows of :func:`nodesim.io.rundir.write_csv`), through a temporary file in the
-    same directory that :meth:`close` renames into place (:meth:`abort` deletes it: a failed run leaves no partial
-    table).  Parquet blocks are encoded on a writer thread (pyarrow releases the GIL) while the run goes on, at most
-    :data:`QUEUED_BLOCKS` waiting; with ``NODESIM_THREADS = 1`` in the calling thread.  The file is the same either
-    way: blocks are written in the order they come."""
+    :data:`PARQUET_OPTIONS`; "csv": :func:`nodesim.io.rundir.csv_text`, as ``write_csv`` writes it), through a
+    temporary file in the same directory that :meth:`close` renames into place (:meth:`abort` deletes it: a failed
+    run leaves no partial table).  Parquet blocks are encoded on a writer thread (pyarrow releases the GIL) while
+    the run goes on, at most :data:`QUEUED_BLOCKS` waiting; with ``NODESIM_THREADS = 1`` in the calling thread.  The
+    file is the same either way: blocks are written in the order they come."""
 
     QUEUED_BLOCKS = 4
 
@@ -80,13 +78,10 @@ class TimeseriesFile:
             else:
                 self._write_parquet(block)
         else:
-            if self._csv is None:
+            header = self._csv is None
+            if header:
                 self._csv = open(self._tmp, "w", newline="")
-                csv.writer(self._csv, lineterminator="\n").writerow(TIMESERIES_COLUMNS)
-            buf = io.StringIO()
-            csv.writer(buf, lineterminator="\n").writerows(zip(*(np.asarray(columns[k]).tolist()
-                                                                 for k in TIMESERIES_COLUMNS)))
-            self._csv.write(buf.getvalue())
+            self._csv.write(csv_text({k: columns[k] for k in TIMESERIES_COLUMNS}, header=header))
         self.rows += len(columns["node"])
 
     def _write_parquet(self, block: dict[str, np.ndarray]) -> None:

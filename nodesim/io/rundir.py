@@ -197,15 +197,21 @@ def write_json(path: Path, obj: Any) -> None:
 
 def write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
     """Write equal-length columns as CSV with a header (floats with repr precision)."""
+    atomic_write_bytes(path, csv_text(columns).encode())
+
+
+def csv_text(columns: dict[str, np.ndarray], header: bool = True) -> str:
+    """Equal-length columns as CSV text (floats with repr precision), with the header line of their names or without
+    (a later block of the same table, :class:`nodesim.chain.streaming.TimeseriesFile`)."""
     import numpy as np
 
     names = list(columns)
-    rows = zip(*(np.asarray(columns[n]).tolist() for n in names))
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(names)
-    w.writerows(rows)
-    atomic_write_bytes(path, buf.getvalue().encode())
+    if header:
+        w.writerow(names)
+    w.writerows(zip(*(np.asarray(columns[n]).tolist() for n in names)))
+    return buf.getvalue()
 
 
 def write_parquet(path: Path, data, compression: str = "snappy", **options) -> None:
