@@ -131,6 +131,7 @@ class Network:
         self.ground: list[GroundSurvey] = []
         self._survey_hops: list[list] = []
         self._prefetched = None  # (node indices, their readings when called): attach_signals' ``ahead``
+        self._ground_by_node: dict[int, list[int]] | None = None  # surveys_of, once every survey is sent
         if attach_signals:
             self.attach_signals(range(c.nodes))
 
@@ -307,8 +308,13 @@ class Network:
         return GroundSurvey(p, g.arrival_s, frame)
 
     def surveys_of(self, index: int) -> list[int]:
-        """The indices in :attr:`ground` of the surveys node index ``index`` (0-based) sent."""
-        return [i for i, g in enumerate(self.ground) if g.packet.node_id == index + 1]
+        """The indices in :attr:`ground` of the surveys node index ``index`` (0-based) sent (grouped once, on the
+        first call: the surveys are all sent by then, in phase 1 or the SimPy run)."""
+        if self._ground_by_node is None:
+            self._ground_by_node = {}
+            for i, g in enumerate(self.ground):
+                self._ground_by_node.setdefault(g.packet.node_id - 1, []).append(i)
+        return self._ground_by_node.get(index, [])
 
     def stream_node(self, index: int, on_node: Callable, surveys: list[GroundSurvey]):
         """A streamed run's step for node index ``index`` once its records are complete: its :class:`NodeRun`, its
