@@ -167,17 +167,17 @@ class _Links:
                 x.stats.crc_rejected, x.stats.undetected = self.bits[8][:, i].copy(), self.bits[9][:, i].copy()
 
 
-def _survey_plan(net, T: np.ndarray, plan: np.ndarray) -> tuple:
+def _survey_plan(net, plan: np.ndarray) -> tuple:
     """The surveys the nodes send (:class:`nodesim.motion.timelines.SurveyStop`), as :meth:`ChainNode.process` sends
     them: at a node's first tick inside [t_survey, end) of its stop where it is not in its static window, up to the
     top node present then.  (stops, first (N,), stop (N,), tick (S,), top (S,)), sorted by node then tick."""
     N = net.n_nodes
     rows = []  # (node index, tick, top index, stop)
     for n, node in enumerate(net.nodes):
-        t = T[n]
+        t, codes = node.t_s, plan[n, :node.t_s.size]
         for stop in node.stops:
-            k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (plan[n] != tp.STATIC)
-                               & (plan[n] != tp.ABSENT))
+            k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (codes != tp.STATIC)
+                               & (codes != tp.ABSENT))
             if k.size:
                 top = net.motion.top_node_id(t[k[0]]) - 1
                 rows.append((n, int(k[0]), top, stop))
@@ -422,10 +422,11 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
                                f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
-ATTACH_AHEAD = 8
-"""A streamed run's phase 2 attaches the sensor readings and records of this many nodes at a time as it reaches them,
-the readings of the next as many computed on the worker threads meanwhile (:meth:`Network.attach_signals`): it holds
-a few nodes' per-tick arrays, not the chain's, and its sensors run beside its filters.  A run that keeps every
+ATTACH_AHEAD = 4
+"""A streamed run's phase 2 computes the sensor readings of this many nodes at a time on the worker threads, a batch
+ahead of the node it runs (:meth:`Network.prepare_signals`), and gives a node its readings and records as it reaches
+it (:meth:`Network.attach_signals`): it holds two batches' readings and three nodes' records (the node and the two
+above it that the nodes below read), not the chain's, and its sensors run beside its filters.  A run that keeps every
 record gains nothing from that and attaches every node's before phase 1, as before streamed runs existed (a
 1000-realization batch timed ~10-15 % slower attaching them as phase 2 went, at load ~2; not isolated)."""
 
@@ -439,12 +440,9 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     (:class:`~nodesim.chain.records.NodeSummary`) and the node's arrays are dropped once the nodes below no longer
     read them (two nodes later: the fallback reads the next-but-one).  The ChainRun then has no ``nodes``."""
     K = np.array([n.t_s.size for n in net.nodes], dtype=np.int64)
-    T = np.full((net.n_nodes, int(K.max())), np.inf)  # a row per node: each node's tick times become a view of it
-    for i, node in enumerate(net.nodes):
-        T[i, :K[i]] = node.t_s
-        node.t_s = T[i, :K[i]]  # the same values, held once (8 bytes a node-tick)
+    T = net.tick_table  # (N, K_max): node n's tick times T[n, :K[n]] (its t_s)
     plan = tp.tick_plan(net.nodes, int(K.max()))
-    survey_plan = _survey_plan(net, T, plan)
+    survey_plan = _survey_plan(net, plan)
     links = _Links(net, bool(survey_plan[0]))
     if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
         net.attach_signals(range(net.n_nodes))
@@ -462,9 +460,10 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     streams = _NodeOutputs(net, on_node, surveys) if on_node is not None else None
     try:
         for n in range(N):
-            if net.nodes[n].sig is None:
-                net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)), ahead=range(n + ATTACH_AHEAD,
-                                                                                   min(N, n + 2 * ATTACH_AHEAD)))
+            if n % ATTACH_AHEAD == 0:  # this batch of nodes' readings (if not yet) and the next's, on the workers
+                net.prepare_signals(range(n, min(N, n + ATTACH_AHEAD)))
+                net.prepare_signals(range(n + ATTACH_AHEAD, min(N, n + 2 * ATTACH_AHEAD)))
+            net.attach_signals([n])
             _run_node(net, n, out, links.bits, plan[n, :K[n]])
             if streams is not None:
                 streams.submit(n)
