@@ -19,8 +19,9 @@ MAC, node failures, outages, bursts, clock steps, per-node clocks and the fallba
 to the received bytes, :mod:`nodesim.chain.bit_errors`) on the estimates going down; bit errors in the survey
 frames going up are the SimPy engine's only (``unsupported``).  What each node does at each tick comes from one
 plan (:mod:`.tick_plan`).
-Uniform draws are buffered per link and realization from the link's own stream; a lane that runs out makes
-phase 1 start again with a longer buffer (same stream, same numbers).
+Each lane of a link draws its uniforms from the link's own stream as the MAC needs them (same stream, same numbers);
+phase 1 takes the events in chunks, so that neither draws nor the event order of a long run are held whole; what
+it records per node-tick is 7 bytes a realization (which estimate reaches which tick).
 """
 
 from __future__ import annotations
