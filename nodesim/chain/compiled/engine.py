@@ -304,6 +304,7 @@ def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
     node.applied = out.applied[:, n, :K]
     node.stale, node.duplicate = out.stale[:, n].copy(), out.duplicate[:, n].copy()
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    node.age = np.full((net.R, K), np.nan)
     ev.forwarded_ages(node.t_s, out.src_offset[:, n, :K], out.src_tick[:, n, :K], above[0].t_s, above[1].t_s, node.age)
     ask, rows = _asks(n, codes, out)
     if ask.size:
