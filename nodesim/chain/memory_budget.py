@@ -16,16 +16,17 @@ on 2026-12-03, a least-squares fit over ten perf-chain sizes (1-400 nodes, 60-36
 filter implementations; every size within 3 % of the fit) and the SimPy engine's drilling run
 (``scenarios/field/drilling_10_tubes.toml``).
 
-A streamed run (``nodesim run`` on the compiled engine, :mod:`nodesim.chain.streaming`) holds phase 1's records
-(which estimate reaches which tick: per node-tick and per realization) and a few nodes' full records at a time:
+A streamed run (``nodesim run`` on the compiled engine, :mod:`nodesim.chain.streaming`) holds the tick-time table
+and phase 1's records (which estimate reaches which tick: 6 bytes per node-tick and realization) for the whole run,
+padded to the longest node's ticks K_max, the per-sample sensor truth (~34 samples a tick of the run), and a few nodes'
+full records at a time:
 
-    peak ~ BASE_S + N s_n + sum_n (K_n + 1) s_t + R sum_n (K_n + 1) s_rt + W R K_max b_rt
+    peak ~ BASE_S + N s_n + N K_max (s_t + R s_rt) + K_max s_k + W R K_max b_rt
 
-with s_n, s_t, s_rt and the window W (in nodes) fitted on 2026-12-03 (BASE_S fixed at a small run's 310 MB) to
-eleven streamed runs after phase 1's tick-time table and buffered draws were freed before phase 2: 10-20000 nodes,
-60-7200 s, 1-300 realizations, both implementations, the drilling day's first one and two hours and the whole day
-(146.5 M node-ticks, 10.80 GB: fitted within 1 %; the day's first hours come out 20-31 % over, the others within
-13 %: on the safe side for a guard).
+with s_rt = 6 bytes (the records' int8 source offset, int32 source tick and bool flag), BASE_S a small run's 310 MB,
+and s_n, s_t, s_k and the window W (in nodes) fitted on 2026-12-03 to eleven streamed runs (10-20000 nodes, 60-7200 s,
+1-300 realizations, both implementations, the drilling day's first one and two hours and the whole day: 146.5 M
+node-ticks, 3.86 GB); every run within 10 % of the fit (the day 1.3 % under).
 tests/nodesim/chain/test_memory_budget.py checks both estimates against the measured peak
 on other sizes (within a factor of 1.5, the goal).
 """
@@ -47,13 +48,15 @@ TICK_BYTES = 411
 EVENT_ENGINE_TICK_BYTES = 2300
 """Per node-tick on the SimPy engine (drilling), beyond the compiled engine's."""
 STREAMED_BASE_BYTES = 310 * 2**20
-STREAMED_TICK_BYTES = 44
-"""A streamed run, per node-tick: tick times, plans, the event order, the shared sensor truth."""
-STREAMED_REALIZATION_TICK_BYTES = 25
-"""A streamed run, per realization and node-tick: phase 1's records and the links' buffered draws."""
-STREAMED_WINDOW_NODES = 7.0
+STREAMED_TICK_BYTES = 11.5
+"""A streamed run, per node-tick (N K_max): the tick-time table, the tick plan, the running flags."""
+STREAMED_REALIZATION_TICK_BYTES = 6
+"""A streamed run, per realization and node-tick (N K_max): phase 1's records."""
+STREAMED_RUN_TICK_BYTES = 2727
+"""A streamed run, per tick of its longest node (K_max): the shared per-sample sensor truth, the table writer's."""
+STREAMED_WINDOW_NODES = 3.63
 """A streamed run holds about this many nodes' full records (R K_max b_rt each) at its peak."""
-STREAMED_NODE_BYTES = 33_000
+STREAMED_NODE_BYTES = 38_800
 """A streamed run, per node: its objects (node, links, channels), its summary and its keys in the run summary."""
 
 
@@ -96,10 +99,11 @@ def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False)
     R = scenario.simulation.realizations
     b_rt = REALIZATION_TICK_BYTES[scenario.filter.implementation]
     if streamed and engine == "compiled":
-        window = int(STREAMED_WINDOW_NODES * R * max(ticks) * b_rt)
+        padded, k_max = len(ticks) * max(ticks), max(ticks)
+        window = int(STREAMED_WINDOW_NODES * R * k_max * b_rt)
         return RunMemory(STREAMED_BASE_BYTES + len(ticks) * STREAMED_NODE_BYTES,
-                         R * node_ticks * STREAMED_REALIZATION_TICK_BYTES + window, node_ticks * STREAMED_TICK_BYTES,
-                         node_ticks, R)
+                         R * padded * STREAMED_REALIZATION_TICK_BYTES + window,
+                         int(padded * STREAMED_TICK_BYTES + k_max * STREAMED_RUN_TICK_BYTES), node_ticks, R)
     out, n = scenario.output, scenario.chain.nodes
     kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
     tables = kept * TICK_BYTES + (node_ticks * EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)

@@ -120,8 +120,14 @@ class Network:
         self.seq = 0
         schedule = schedule_of(scenario)
         self.nodes: list[ChainNode] = []
-        ticks = [self._tick_times(i) for i in range(c.nodes)]
-        for i, t in enumerate(ticks):
+        # every node's tick times as a row of one table (N, K_max), the node's t_s a view of its row (past its K
+        # ticks the row is left unset and never read): the compiled engine's phase 1 reads the table as it is, and no
+        # second copy of the run's tick times (8 bytes a node-tick) is ever held; the sizes come from a first pass
+        sizes = [self._tick_times(i).size for i in range(c.nodes)]
+        self.tick_table = np.empty((c.nodes, max(sizes)))
+        for i, size in enumerate(sizes):
+            t = self.tick_table[i, :size]
+            t[:] = self._tick_times(i)
             node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)
             node.radio = RadioState(R, mac.queue_length)
@@ -130,29 +136,35 @@ class Network:
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
         self._survey_hops: list[list] = []
-        self._prefetched = None  # (node indices, their readings when called): attach_signals' ``ahead``
+        self._pending: list = []  # (node indices, their readings when called): prepare_signals'
+        self._ready: dict = {}  # node index -> its readings, computed, not yet attached
         self._ground_by_node: dict[int, list[int]] | None = None  # surveys_of, once every survey is sent
         if attach_signals:
             self.attach_signals(range(c.nodes))
 
-    def attach_signals(self, indices, ahead=()) -> None:
+    def attach_signals(self, indices) -> None:
         """Sensor readings (:func:`nodesim.chain.sensing.node_signals`) and per-tick records of the nodes ``indices``
-        (0-based), on threads (:func:`nodesim.threads.map_nodes`): every node at once for the SimPy engine, a few
-        nodes ahead of phase 2 for the compiled engine, which also names the nodes it will need next (``ahead``):
-        their readings are computed on the worker threads while it runs the nodes before them (each node's
-        readings are its own draws: the same bits whenever they are computed)."""
-        batch = self._prefetched
-        if batch is not None and batch[0] and batch[0][0] in indices:
-            self._prefetched = None
-            for i, sig in zip(batch[0], batch[1]()):
-                self.nodes[i].attach(sig)
-        todo = [i for i in indices if self.nodes[i].sig is None]
+        (0-based), on threads (:func:`nodesim.threads.map_nodes`): every node at once for the SimPy engine, node by
+        node as phase 2 reaches it for the compiled engine, which names the nodes it will need next beforehand
+        (:meth:`prepare_signals`).  Each node's readings are its own draws: the same bits whenever computed."""
+        for batch in [b for b in self._pending if any(i in b[0] for i in indices)]:
+            self._pending.remove(batch)
+            self._ready.update(zip(batch[0], batch[1]()))
+        todo = [i for i in indices if self.nodes[i].sig is None and i not in self._ready]
         if todo:
-            for i, sig in zip(todo, self._signals_later(todo)()):
-                self.nodes[i].attach(sig)
-        later = [i for i in ahead if self.nodes[i].sig is None]
-        if later:
-            self._prefetched = (later, self._signals_later(later))
+            self._ready.update(zip(todo, self._signals_later(todo)()))
+        for i in indices:
+            if self.nodes[i].sig is None:
+                self.nodes[i].attach(self._ready.pop(i))
+
+    def prepare_signals(self, indices) -> None:
+        """Start the readings of the nodes ``indices`` on the worker threads (:func:`nodesim.threads.map_nodes_later`)
+        for :meth:`attach_signals` to take later: phase 2's sensors run beside its filters, and only the node being
+        run holds its per-tick records."""
+        queued = {i for b in self._pending for i in b[0]}
+        todo = [i for i in indices if self.nodes[i].sig is None and i not in self._ready and i not in queued]
+        if todo:
+            self._pending.append((todo, self._signals_later(todo)))
 
     def _signals_later(self, todo: list[int]):
         scenario, motion, streams, dt = self.scenario, self.motion, self._streams, self.dt_s  # not self in the task:

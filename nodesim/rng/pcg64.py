@@ -64,7 +64,7 @@ def _output(hi, lo):
 
 
 @njit(cache=True, inline="always")
-def _double(hi, lo, inc_hi, inc_lo):
+def uniform(hi, lo, inc_hi, inc_lo):
     """(next ``random()`` draw, new hi, new lo)."""
     hi, lo = _advance(hi, lo, inc_hi, inc_lo)
     return (_output(hi, lo) >> uint64(11)) * _DOUBLE_UNIT, hi, lo
@@ -87,15 +87,15 @@ def normal(hi, lo, inc_hi, inc_lo):
             return x, hi, lo
         if idx == 0:
             while True:
-                u, hi, lo = _double(hi, lo, inc_hi, inc_lo)
+                u, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
                 xx = -ziggurat_nor_inv_r * np.log1p(-u)
-                u, hi, lo = _double(hi, lo, inc_hi, inc_lo)
+                u, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
                 yy = -np.log1p(-u)
                 if yy + yy > xx * xx:
                     tail = ziggurat_nor_r + xx
                     return (-tail if (rabs >> uint64(8)) & uint64(1) else tail), hi, lo
         else:
-            u, hi, lo = _double(hi, lo, inc_hi, inc_lo)
+            u, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
             if (fi_double[idx - 1] - fi_double[idx]) * u + fi_double[idx] < np.exp(-0.5 * x * x):
                 return x, hi, lo
 
@@ -133,5 +133,5 @@ def fill_uniforms(states: np.ndarray, rows: np.ndarray, buffer: np.ndarray, star
         i = rows[j]
         hi, lo, inc_hi, inc_lo = states[i, 0], states[i, 1], states[i, 2], states[i, 3]
         for p in range(start[j], stop[j]):
-            buffer[p], hi, lo = _double(hi, lo, inc_hi, inc_lo)
+            buffer[p], hi, lo = uniform(hi, lo, inc_hi, inc_lo)
         states[i, 0], states[i, 1] = hi, lo

@@ -19,19 +19,18 @@ MAC, node failures, outages, bursts, clock steps, per-node clocks and the fallba
 to the received bytes, :mod:`nodesim.chain.bit_errors`) on the estimates going down; bit errors in the survey
 frames going up are the SimPy engine's only (``unsupported``).  What each node does at each tick comes from one
 plan (:mod:`.tick_plan`).
-Uniform draws are buffered per link and realization from the link's own stream; a lane that runs out makes
-phase 1 start again with a longer buffer (same stream, same numbers).
+Each lane of a link draws its uniforms from the link's own stream as the MAC needs them (same stream, same numbers);
+phase 1 takes the events in chunks, so that neither draws nor the event order of a long run are held whole; what
+it records per node-tick is 7 bytes a realization (which estimate reaches which tick).
 """
 
 from __future__ import annotations
 
-import math
 from typing import Callable
 
 import numpy as np
 
 from nodesim import threads
-from nodesim.rng import pcg64
 from nodesim.chain.compiled import events as ev
 from firmware_model import fixed_kernel
 from firmware_model import frames as fr
@@ -70,16 +69,15 @@ def choose_engine(scenario: Scenario) -> str:
 
 
 class _Links:
-    """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback; built, with
-    its draws, only if phase 1 needs it), up links 2N + h (hop h, surveys), survey skip links 3N + h (node h's
-    surveys past a silent neighbour, to node h - 2; built on use), as realization-major arrays (:mod:`.mac_kernel`).  ``hops_up[h]``: how many surveys cross hop h, ``asks``: the encoder requests (what their
-    draws are sized for)."""
+    """Every link phase 1 may use: down links 0..N-1 (hop h), skip links N + i (node i's fallback; its object is
+    built only if phase 1 used it), up links 2N + h (hop h, surveys), survey skip links 3N + h (node h's surveys
+    past a silent neighbour, to node h - 2; likewise), as realization-major arrays (:mod:`.mac_kernel`), with each
+    lane's PCG64 state at the start of its stream (``states``).  ``surveys``: whether any node sends a survey."""
 
-    def __init__(self, net, hops_up: np.ndarray, asks: int):
+    def __init__(self, net, surveys: bool):
         N, R = net.n_nodes, net.R
         self.net = net
         self.links: list = list(net.down_links) + [None] * N + list(net.up_links) + [None] * N
-        surveys = bool(hops_up.any())
         channels = [x.channel for x in net.down_links] + [
             net._skips[i + 1] if node.fallback.enabled else None for i, node in enumerate(net.nodes)] + [
             x.channel for x in net.up_links] + [net.up_skip_channel(h + 1) if surveys else None for h in range(N)]
@@ -110,25 +108,10 @@ class _Links:
         self.chan = (per_data, per_ack, rows, step, air, ack_air, burst, out, n_out)
         self.margin = margin
         self.bits = self._bits(channels)
-        self.sizes = np.zeros((R, L), dtype=np.int64)
-        m = net.scenario.mac
-        attempts = 1 + m.max_retries if m.enabled else 1
-
-        def expected(i: int, frames: int) -> int:  # what a link is expected to use, with headroom (more on demand)
-            ch = channels[i]
-            per_attempt = (2 if m.enabled else 1) + (2 if bursts[i] is not None else 0)
-            p_ok = float(np.mean((1.0 - ch.per_data_table) * (1.0 - ch.per_ack_table)))
-            mean_attempts = min(attempts, 1.2 / max(p_ok, 1.0 / attempts) + 0.05)
-            return int(math.ceil(frames * per_attempt * mean_attempts)) + 64
-
-        for h in range(N):  # hop 0: the encoder requests and replies of whichever node is on top
-            self.sizes[:, h] = expected(h, 2 * asks if h == 0 else net.nodes[h - 1].t_s.size)
-            if hops_up[h]:
-                self.sizes[:, 2 * N + h] = expected(2 * N + h, int(hops_up[h]))
-        self.buffer = np.empty(0)
-        self.start = np.zeros((R, L), dtype=np.int64)
-        self.states: list[np.ndarray | None] = [None] * L
-        self._fill(np.zeros((R, L), dtype=np.int64))
+        self.states = np.zeros((R, L, 4), np.uint64)  # every lane's PCG64 state where its draws start
+        for i, ch in enumerate(channels):
+            if ch is not None:
+                self.states[:, i] = self._stream_states(i)
 
     def _bits(self, channels) -> tuple:
         """``mac.bit_errors`` (:mod:`.mac_kernel`): BER and preamble loss tables and the bit-error keys of the
@@ -162,53 +145,14 @@ class _Links:
             self.links[i] = self.net.skip_link(i - N + 1) if i < 3 * N else self.net.up_skip_link(i - 3 * N + 1)
         return self.links[i]
 
-    def _fill(self, kept: np.ndarray) -> None:
-        """One flat buffer, realization by realization, link by link: the ``kept`` draws of each lane already
-        buffered, then the continuation of its stream up to ``sizes``."""
-        R, L = self.sizes.shape
-        start = np.zeros(R * L, dtype=np.int64)
-        start[1:] = np.cumsum(self.sizes.ravel())[:-1]
-        start = start.reshape(R, L)
-        buf = np.empty(int(self.sizes.sum()))
-        for i in range(L):
-            for r in np.flatnonzero(kept[:, i]):
-                buf[start[r, i]:start[r, i] + kept[r, i]] = self.buffer[self.start[r, i]:self.start[r, i] + kept[r, i]]
-            rows = np.flatnonzero(self.sizes[:, i] > kept[:, i])
-            if rows.size:
-                self._draw(i, rows, buf, start[rows, i] + kept[rows, i], start[rows, i] + self.sizes[rows, i])
-        self.buffer, self.start = buf, start
-
-    def _draw(self, i: int, rows: np.ndarray, buf: np.ndarray, begin: np.ndarray, end: np.ndarray) -> None:
-        """``buf[begin[j]:end[j]]`` = the next uniforms of link ``i``'s stream ``rows[j]`` (ranges of rows on
-        threads: each stream is advanced by one of them)."""
-        states = self._states(i)
-        threads.map_chunks(lambda a, b: pcg64.fill_uniforms(states, rows[a:b], buf, begin[a:b], end[a:b]),
-                           rows.size)
-
-    def _states(self, i: int) -> np.ndarray:
-        """Link ``i``'s PCG64 states (R, 4), where its draws stand (built on first use)."""
-        if self.states[i] is None:
-            streams, N, R = self.net._streams, self.net.n_nodes, self.net.R
-            if N <= i < 2 * N:
-                self.states[i] = streams.skip_link_states(R, i - N + 1)
-            elif i >= 3 * N:
-                self.states[i] = streams.skip_link_states(R, i - 3 * N + 1, up=True)
-            else:  # down link h = h, up link h = 2N + h: the network's links N + h (RunStreams)
-                self.states[i] = streams.link_states(R, i if i < N else i - N)
-        return self.states[i]
-
-    def more(self, i: int, r: int, done_fraction: float) -> None:
-        """More buffered draws for every lane of link ``i`` (the continuation of their streams), after lane ``r``
-        ran out with ``done_fraction`` of the events behind it: at least twice as many, and as many as that lane's
-        rate of use says the whole run needs.  Growing the whole link keeps the restarts of phase 1 to a few per
-        link whatever R is (one lane at a time would make them grow with R)."""
-        kept = self.sizes.copy()
-        used = int(self.sizes[r, i])
-        self.sizes[:, i] = max(256, 2 * int(self.sizes[:, i].max()), int(math.ceil(1.2 * used / done_fraction)))
-        self._fill(kept)
-
-    def draws(self) -> tuple:
-        return self.buffer, self.start, self.sizes, np.zeros_like(self.sizes)
+    def _stream_states(self, i: int) -> np.ndarray:
+        """Link ``i``'s PCG64 states (R, 4) at the start of its stream."""
+        streams, N, R = self.net._streams, self.net.n_nodes, self.net.R
+        if N <= i < 2 * N:
+            return streams.skip_link_states(R, i - N + 1)
+        if i >= 3 * N:
+            return streams.skip_link_states(R, i - 3 * N + 1, up=True)
+        return streams.link_states(R, i if i < N else i - N)  # down link h = h, up link h = 2N + h: links N + h
 
     def store(self, stats: tuple) -> None:
         frames, delivered, attempts, dropped, latency, _ = stats
@@ -224,17 +168,17 @@ class _Links:
                 x.stats.crc_rejected, x.stats.undetected = self.bits[8][:, i].copy(), self.bits[9][:, i].copy()
 
 
-def _survey_plan(net, T: np.ndarray, plan: np.ndarray) -> tuple:
+def _survey_plan(net, plan: np.ndarray) -> tuple:
     """The surveys the nodes send (:class:`nodesim.motion.timelines.SurveyStop`), as :meth:`ChainNode.process` sends
     them: at a node's first tick inside [t_survey, end) of its stop where it is not in its static window, up to the
     top node present then.  (stops, first (N,), stop (N,), tick (S,), top (S,)), sorted by node then tick."""
     N = net.n_nodes
     rows = []  # (node index, tick, top index, stop)
     for n, node in enumerate(net.nodes):
-        t = T[:, n]
+        t, codes = node.t_s, plan[n, :node.t_s.size]
         for stop in node.stops:
-            k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (plan[:, n] != tp.STATIC)
-                               & (plan[:, n] != tp.ABSENT))
+            k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (codes != tp.STATIC)
+                               & (codes != tp.ABSENT))
             if k.size:
                 top = net.motion.top_node_id(t[k[0]]) - 1
                 rows.append((n, int(k[0]), top, stop))
@@ -247,33 +191,21 @@ def _survey_plan(net, T: np.ndarray, plan: np.ndarray) -> tuple:
     return [(x[0], x[1], x[3]) for x in rows], first, last, ticks, tops
 
 
-def _hops_up(N: int, senders: list, tops: np.ndarray) -> np.ndarray:
-    """(N,) how many surveys cross each up hop h (of every survey: the hops between its sender and the top node, and
-    hop 0 from the top node to the surface)."""
-    d = np.zeros(N + 1, dtype=np.int64)
-    for (n, _, _), top in zip(senders, tops):  # hops top + 1 .. n between nodes, then hop 0 to the surface
-        d[top + 1] += 1
-        d[n + 1] -= 1
-        d[0] += 1
-        d[1] -= 1
-    return np.cumsum(d[:N])
-
-
 def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray, survey_plan: tuple):
-    """Phase 1 (:mod:`.events`) over ranges of realizations on threads (:mod:`nodesim.threads`), started again
-    with more draws or inbox slots until every range completes."""
+    """Phase 1 (:mod:`.events`): the events chunk by chunk, each chunk over ranges of realizations on threads
+    (:mod:`nodesim.threads`) while the next chunk is made on another; started again with more inbox slots until
+    every range completes.  (events, :class:`.events.Records`, radio, stats, (survey arrival (R, S), event (S,)))."""
     N, R = net.n_nodes, net.R
     c, m = net.scenario.chain, net.scenario.mac
     Kmax = int(K.max())
     dead_at = np.array([n.dead_at_s for n in net.nodes], dtype=float)
-    order = ev.event_order(T, K, dead_at)
     _, s_first, s_stop, s_tick, s_top = survey_plan
     fb = net.scenario.faults
     fallback = (np.array([n.fallback.enabled for n in net.nodes]), np.arange(N, 2 * N, dtype=np.int64),
                 fb.fallback_after_failures, fb.fallback_min_margin_db)
-    asks = (plan == tp.ASK).any(axis=0)  # the nodes that ask the encoder at some tick: a t_read row each
-    ask_row = np.where(asks, np.cumsum(asks) - 1, -1).astype(np.int64)
-    nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick, ask_row)
+    asks = (plan == tp.ASK).sum(axis=1)  # each node's encoder requests, node by node in the records
+    ask_first = np.concatenate(([0], np.cumsum(asks)[:-1])).astype(np.int64)
+    nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick, ask_first)
     mac = np.array([float(m.enabled), m.max_retries, m.queue_length, m.turnaround_s, m.ack_timeout_s, m.duty_cycle])
     slots = INBOX_SLOTS
     L, radios = len(links.links), N + 1
@@ -289,47 +221,94 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         for a in bits[8:10]:
             a[:] = 0
         bits[10][:] = -1
-        out = (np.zeros((Kmax, N), dtype=bool), np.zeros((R, N, Kmax), dtype=bool), np.full((R, N, Kmax), np.nan),
-               np.full((R, N, Kmax), -1, np.int32), np.full((R, N, Kmax), -1, np.int32),
-               np.full((R, max(int(asks.sum()), 1), Kmax), np.nan), np.zeros((R, N), np.int64),
-               np.zeros((R, N), np.int64))
+        A = max(int(asks.sum()), 1)
+        out = ev.Records(np.zeros((N, Kmax), dtype=bool), np.zeros((R, N, Kmax), dtype=bool),
+                         np.full((R, N, Kmax), -1, np.int8), np.full((R, N, Kmax), -1, np.int32),
+                         np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
+                         np.zeros((R, N), np.int64), ask_first)
         surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),
                    links.up_skips)
-        draws, last_seq, streak = links.draws(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
+        draws, last_seq, streak = links.states.copy(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
+        cursor = (np.repeat(s_first[None, :], R, axis=0), np.repeat(ask_first[None, :], R, axis=0))
 
-        def run(r0: int, r1: int):  # called within this pass of the loop: the arrays above
-            need = np.zeros(3, np.int64)
-            scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
-            status = ev.run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, links.chan, links.margin,
-                                   draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak, out, need, np.zeros(N, np.int64),
-                                   r0, r1)
-            return status, need
+        def run(chunk: tuple, e_first: int) -> int:  # one chunk in every realization, ranges on threads
+            def lanes(r0: int, r1: int) -> int:
+                scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
+                return ev.run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, links.chan,
+                                     links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
+                                     out, cursor, r0, r1)
+            return max(threads.map_chunks(lanes, R))
 
-        ended = threads.map_chunks(run, R)
-        if all(status == ev.DONE for status, _ in ended):
-            return order[0].size, out + (ask_row,), radio, stats, surveys[4:6]
-        if any(status == ev.INBOX_FULL for status, _ in ended):
-            slots *= 2
-        short: dict[int, tuple[int, int]] = {}  # link -> (lane, event) of the range that ran out soonest
-        for status, need in ended:
-            link, lane, event = (int(x) for x in need)
-            if status == ev.NEED_DRAWS and (link not in short or event < short[link][1]):
-                short[link] = (lane, event)
-        for link, (lane, event) in short.items():
-            links.more(link, lane, (event + 1) / order[0].size)
+        events, status = _each_chunk(T, K, dead_at, run)
+        if status == ev.DONE:
+            return events, out, radio, stats, surveys[4:6]
+        slots *= 2
 
 
-def _encoder_reads(net, n: int, t: np.ndarray, codes: np.ndarray, out: tuple):
+def _each_chunk(T, K, dead_at, run: Callable) -> tuple[int, int]:
+    """``run(chunk, first event)`` over the run's events in chunks (:func:`.events.next_events`), the next chunk
+    made on a worker thread while ``run`` takes the last one; (events, the first status that is not DONE, else
+    DONE)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    heap, counters, next_k, total = ev.first_events(T, K, dead_at)
+    size = min(ev.CHUNK_EVENTS, max(total, 1))
+    buffers = [(np.empty(size, np.int32), np.empty(size, np.int32)) for _ in range(2)]
+
+    def make(i: int) -> tuple:
+        nodes, ticks = buffers[i % 2]
+        count = ev.next_events(T, K, dead_at, heap, counters, next_k, nodes, ticks)
+        return nodes[:count], ticks[:count]
+
+    done = 0
+    with ThreadPoolExecutor(1, thread_name_prefix="nodesim-events") as pool:
+        coming = pool.submit(make, 0)
+        i = 0
+        while True:
+            chunk = coming.result()
+            if not chunk[0].size:
+                return done, ev.DONE
+            i += 1
+            coming = pool.submit(make, i)  # into the other buffer, while this one runs
+            status = run(chunk, done)
+            done += chunk[0].size
+            if status != ev.DONE:
+                coming.result()
+                return done, status
+
+
+def _asks(n: int, codes: np.ndarray, out: ev.Records) -> tuple[np.ndarray, slice]:
+    """Node index ``n``'s ``ASK`` ticks and where its requests are in ``out.ask_*``."""
+    ask = np.flatnonzero(codes == tp.ASK)
+    return ask, slice(int(out.ask_first[n]), int(out.ask_first[n]) + ask.size)
+
+
+def _encoder_reads(net, n: int, t: np.ndarray, codes: np.ndarray, out: ev.Records):
     """Node index ``n``'s encoder replies at its ``ASK`` ticks: (those ticks, t_read (R, A), yaw (R, A), rate (R, A)),
     read at the request's arrival (at the tick itself where the request was lost)."""
-    ask = np.flatnonzero(codes == tp.ASK)
+    ask, rows = _asks(n, codes, out)
     if not ask.size:
         return ask, None, None, None
-    enc_t_read = out[5]
-    t_read = enc_t_read[:, out[8][n], ask]
-    t_read = np.where(np.isnan(t_read), t[ask], t_read)
+    t_read = out.ask_t_read[:, rows]
     yaw, rate = net.encoder.read_many(t_read)
     return ask, t_read, yaw, rate
+
+
+def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
+    """Node index ``n``'s records from phase 1: running, applied (a view), stale and duplicate packets, and each
+    update's age: the encoder reply's from phase 1, a forwarded estimate's t_n[k] - t_(n-s)[j] again
+    (:func:`.events.forwarded_ages`: the same subtraction phase 1 made)."""
+    node = net.nodes[n]
+    K = node.t_s.size
+    node.running[:] = out.running[n, :K]
+    node.applied = out.applied[:, n, :K]
+    node.stale, node.duplicate = out.stale[:, n].copy(), out.duplicate[:, n].copy()
+    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    node.age = np.full((net.R, K), np.nan)
+    ev.forwarded_ages(node.t_s, out.src_offset[:, n, :K], out.src_tick[:, n, :K], above[0].t_s, above[1].t_s, node.age)
+    ask, rows = _asks(n, codes, out)
+    if ask.size:
+        node.age[:, ask] = out.ask_age[:, rows]
 
 
 def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
@@ -337,14 +316,11 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     from nodesim.chain.estimator import new_filter
 
     node, sig = net.nodes[n], net.nodes[n].sig
-    running, applied, age, src_node, src_tick, _, stale, dup, _ = out
     t, R = sig.t_s, net.R
     K = t.size
     k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
     starts = np.flatnonzero(codes == tp.START)
-    node.running[:] = running[:K, n]
-    node.applied, node.age = applied[:, n, :K], age[:, n, :K]  # views of phase 1's records
-    node.stale, node.duplicate = stale[:, n].copy(), dup[:, n].copy()
+    _attach_records(net, n, out, codes)
     static = codes == tp.STATIC
     if static.any():
         node.yaw[:, static] = net.encoder.read_many(t[static])[0]
@@ -361,12 +337,13 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
     state, params = float_kernel.lane_states(node.kf), float_kernel.kernel_params(node.kf)
-    enc_ref, offset, up = float_references(net, n, _encoder_reads(net, n, t, codes, out), src_node)
+    enc_ref, offset, up = float_references(net, n, _encoder_reads(net, n, t, codes, out), out.src_offset)
+    src_tick = out.src_tick[:, n, :K]
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fixed_kernel.SITES), dtype=np.int64)  # per range of realizations, summed below
         filters.run_node(state, params, counts, sig.gyro_rad_s, t, n_static + 1, k_end,
-                         codes, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K], *up,
+                         codes, enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick, *up,
                          net.dt_s, net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2,
                          node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1)
         return counts
@@ -400,9 +377,9 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`); its filter
     starts at tick ``n_static``."""
     node, sig = net.nodes[n], net.nodes[n].sig
-    src_node, src_tick = out[3], out[4]
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
+    offset, src_tick = out.src_offset[:, n, :K], out.src_tick[:, n, :K]
     # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
     # node's requests, the reply read at the request's arrival; no other tick reads it
     yaw_enc = np.zeros((R, K), np.int64)
@@ -413,13 +390,11 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     if ask.size:
         yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
         enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
-    src = src_node[:, n, :K]
-    offset = np.where(src >= 0, n - src, -1)
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    up_frames = _received_frames(net, n, above, offset, src_tick[:, n, :K], bits)
+    up_frames = _received_frames(net, n, above, offset, src_tick, bits)
     inp, res = np.zeros((R, len(fw.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
     six = six_state_fixed_node.build(fw)  # (is 6-state, its build, initial lane): the fixed 6-state node's tick
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
@@ -428,10 +403,10 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
         if n > 0:
-            frame_pass.receive_frames(offset, src_tick[:, n, :K], k_first, k_end, up_frames, *rx, words, r0, r1)
+            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, *rx, words, r0, r1)
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts,
                                   sig.samples, t, codes, k_end,
-                                  node.applied, yaw_enc, enc_rate, back_us, offset, src_tick[:, n, :K],
+                                  node.applied, yaw_enc, enc_rate, back_us, offset, src_tick,
                                   tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
                                   bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *six,
                                   six_state.new_work())
@@ -449,10 +424,11 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
                                f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
-ATTACH_AHEAD = 8
-"""A streamed run's phase 2 attaches the sensor readings and records of this many nodes at a time as it reaches them,
-the readings of the next as many computed on the worker threads meanwhile (:meth:`Network.attach_signals`): it holds
-a few nodes' per-tick arrays, not the chain's, and its sensors run beside its filters.  A run that keeps every
+ATTACH_AHEAD = 4
+"""A streamed run's phase 2 computes the sensor readings of this many nodes at a time on the worker threads, a batch
+ahead of the node it runs (:meth:`Network.prepare_signals`), and gives a node its readings and records as it reaches
+it (:meth:`Network.attach_signals`): it holds two batches' readings and three nodes' records (the node and the two
+above it that the nodes below read), not the chain's, and its sensors run beside its filters.  A run that keeps every
 record gains nothing from that and attaches every node's before phase 1, as before streamed runs existed (a
 1000-realization batch timed ~10-15 % slower attaching them as phase 2 went, at load ~2; not isolated)."""
 
@@ -466,19 +442,15 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     (:class:`~nodesim.chain.records.NodeSummary`) and the node's arrays are dropped once the nodes below no longer
     read them (two nodes later: the fallback reads the next-but-one).  The ChainRun then has no ``nodes``."""
     K = np.array([n.t_s.size for n in net.nodes], dtype=np.int64)
-    T = np.full((int(K.max()), net.n_nodes), np.inf)  # tick-major: events in time order touch neighbouring memory
-    for i, node in enumerate(net.nodes):
-        T[:K[i], i] = node.t_s
+    T = net.tick_table  # (N, K_max): node n's tick times T[n, :K[n]] (its t_s)
     plan = tp.tick_plan(net.nodes, int(K.max()))
-    survey_plan = _survey_plan(net, T, plan)
-    links = _Links(net, _hops_up(net.n_nodes, survey_plan[0], survey_plan[4]), int((plan == tp.ASK).sum()))
+    survey_plan = _survey_plan(net, plan)
+    links = _Links(net, bool(survey_plan[0]))
     if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
         net.attach_signals(range(net.n_nodes))
     net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
     net.engine = "compiled"
     links.store(stats)
-    del T  # phase 2 reads the nodes' own tick times; the draws were phase 1's (~28 bytes a node-tick between them)
-    links.buffer = links.start = None
     for i, node in enumerate(net.nodes):
         node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
     net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()
@@ -490,10 +462,11 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     streams = _NodeOutputs(net, on_node, surveys) if on_node is not None else None
     try:
         for n in range(N):
-            if net.nodes[n].sig is None:
-                net.attach_signals(range(n, min(N, n + ATTACH_AHEAD)), ahead=range(n + ATTACH_AHEAD,
-                                                                                   min(N, n + 2 * ATTACH_AHEAD)))
-            _run_node(net, n, out, links.bits, plan[:K[n], n])
+            if n % ATTACH_AHEAD == 0:  # this batch of nodes' readings (if not yet) and the next's, on the workers
+                net.prepare_signals(range(n, min(N, n + ATTACH_AHEAD)))
+                net.prepare_signals(range(n + ATTACH_AHEAD, min(N, n + 2 * ATTACH_AHEAD)))
+            net.attach_signals([n])
+            _run_node(net, n, out, links.bits, plan[n, :K[n]])
             if streams is not None:
                 streams.submit(n)
                 if n >= 2:  # the nodes below n - 1 no longer read node n - 2's estimates

@@ -26,13 +26,17 @@ no state, so :func:`run_events` runs them one after the other over that order, e
 memory (arrays are realization-major), and ranges of realizations can run on parallel threads
 (:mod:`nodesim.threads`).  The frame and selection kernels are inlined at numba's IR level: a call passing
 ~26 arrays cost as much as the work (phase 1 of 1000 realizations x 20 nodes x 2 min: 1.12 s -> 0.63 s).
-Status codes: 0 done; 1 a lane ran out of buffered draws (``need`` = link, realization, event index); 2 an
-inbox is full.
+The events come in chunks (:func:`next_events` resumes SimPy's queue where the last chunk ended, :func:`run_events`
+takes a chunk in every realization, each realization's state kept between chunks), so that the order of a long run
+is never held whole (8 bytes an event: 1.2 GB for the 1000-tube drilling day).  Each link's uniform draws come from
+its own PCG64 stream as the MAC needs them (:mod:`.mac_kernel`).  Status codes: 0 done; 2 an inbox is full (the
+caller starts again with more slots).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -40,15 +44,31 @@ from numba import njit
 from nodesim.chain.compiled.mac_kernel import time_row, transfer
 from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, STATIC, TOP
 
-DONE, NEED_DRAWS, INBOX_FULL = 0, 1, 2
+DONE, INBOX_FULL = 0, 2
 
 
-@njit(cache=True)
+class Records(NamedTuple):
+    """Phase 1's records, what phase 2 reads (N nodes, K ticks, R realizations, A encoder requests of the run)."""
+
+    running: np.ndarray  # (N, K) bool: the node ran that tick (same in every realization)
+    applied: np.ndarray  # (R, N, K) bool: the node took a reference
+    src_offset: np.ndarray  # (R, N, K) int8: it came from node n - 1 (1) or n - 2 (2); -1 none or the encoder's
+    src_tick: np.ndarray  # (R, N, K) int32: the sender's tick it was read at
+    ask_t_read: np.ndarray  # (R, A): each encoder request's read time (its arrival; the tick itself where lost)
+    ask_age: np.ndarray  # (R, A): the reply's arrival - t_read, NaN where none came back
+    stale: np.ndarray  # (R, N) int64
+    duplicate: np.ndarray  # (R, N) int64
+    ask_first: np.ndarray  # (N,) int64: node n's first request in ``ask_*`` (its requests follow in tick order)
+CHUNK_EVENTS = 1 << 22
+"""Events per chunk (32 MB of order; a chunk is run in every realization before the next is made)."""
+
+
+@njit(cache=True, nogil=True)
 def _less(ta, ea, tb, eb) -> bool:
     return ta < tb or (ta == tb and ea < eb)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _push(h_t, h_e, h_n, size, t, e, n) -> int:
     i = size
     h_t[i], h_e[i], h_n[i] = t, e, n
@@ -63,7 +83,7 @@ def _push(h_t, h_e, h_n, size, t, e, n) -> int:
     return size + 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _pop(h_t, h_e, h_n, size):
     t, n = h_t[0], h_n[0]
     size -= 1
@@ -109,7 +129,7 @@ def _swap(inbox, r, n, i, j) -> None:
 
 
 @njit(cache=True, inline="always")
-def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick, age, bits) -> bool:
+def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick, bits) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
     True if a fresh packet was taken (with ``mac.bit_errors``, its corrupting try, if any, is recorded)."""
     i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber = inbox
@@ -131,7 +151,7 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src
         newer = i_seq[r, n, j] > last_seq[r, n]
         if not newer:
             dup[r, n] += 1
-        t_read = T[i_tick[r, n, j], i_src[r, n, j]]
+        t_read = T[i_src[r, n, j], i_tick[r, n, j]]
         if t - t_read > max_age_s:
             if newer and not have:
                 stale[r, n] += 1
@@ -139,8 +159,7 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src
         if newer and not have:
             have = True
             seq_taken = i_seq[r, n, j]
-            src_node[r, n, k], src_tick[r, n, k] = i_src[r, n, j], i_tick[r, n, j]
-            age[r, n, k] = t - t_read
+            src_offset[r, n, k], src_tick[r, n, k] = n - i_src[r, n, j], i_tick[r, n, j]
             if bits[0]:
                 bits[10][r, n, k], bits[11][r, n, k] = i_try[r, n, j], i_ber[r, n, j]
     if have:
@@ -151,72 +170,109 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src
     return have
 
 
-@njit(cache=True)
-def event_order(T, K, dead_at):
-    """(node, tick) of every event in SimPy's order (module docstring), int32 each (a run's nodes and ticks stay
-    far below 2^31: a day at 1.9 Hz is 164 k ticks)."""
-    N = T.shape[1]
+def first_events(T, K, dead_at) -> tuple:
+    """SimPy's event queue at t = 0 (each node's first tick) and how many events the run has: (heap (times (N,),
+    creation counters (N,), nodes (N,)), counters [size, next creation counter], next tick (N,), total events)."""
+    N = T.shape[0]
+    heap = (np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64))
+    counters, next_k = np.zeros(2, dtype=np.int64), np.zeros(N, dtype=np.int64)
+    _first_events(T, K, dead_at, heap, counters)
+    return heap, counters, next_k, int(_event_count(T, K, dead_at))
+
+
+@njit(cache=True, nogil=True)
+def _event_count(T, K, dead_at) -> int:
     total = 0
-    for n in range(N):
+    for n in range(T.shape[0]):
         for k in range(K[n]):
-            if T[k, n] < dead_at[n]:
+            if T[n, k] < dead_at[n]:
                 total += 1
-    nodes, ticks = np.empty(total, dtype=np.int32), np.empty(total, dtype=np.int32)  # 8 bytes an event, not 16
-    h_t, h_e, h_n = np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64)
-    size, eid, e = 0, 0, 0
-    next_k = np.zeros(N, dtype=np.int64)
-    for n in range(N):
-        if K[n] > 0 and T[0, n] < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, 0.0 + (T[0, n] - 0.0), eid, n)
+    return total
+
+
+@njit(cache=True, nogil=True)
+def _first_events(T, K, dead_at, heap, counters) -> None:
+    h_t, h_e, h_n = heap
+    size, eid = 0, 0
+    for n in range(T.shape[0]):
+        if K[n] > 0 and T[n, 0] < dead_at[n]:
+            size = _push(h_t, h_e, h_n, size, 0.0 + (T[n, 0] - 0.0), eid, n)
             eid += 1
-    while size > 0:
+    counters[0], counters[1] = size, eid
+
+
+@njit(cache=True, nogil=True)
+def next_events(T, K, dead_at, heap, counters, next_k, nodes, ticks) -> int:
+    """The next events in SimPy's order (module docstring), resuming the queue of :func:`first_events`: (node, tick)
+    into ``nodes``, ``ticks`` (int32: a run's nodes and ticks stay far below 2^31; a day at 1.9 Hz is 164 k ticks),
+    as many as fit; returns how many (0: the run is over).  A node's next tick is queued at now + (T - now), as
+    ``env.timeout(t - env.now)`` schedules it."""
+    h_t, h_e, h_n = heap
+    size, eid = counters[0], counters[1]
+    e = 0
+    while size > 0 and e < nodes.shape[0]:
         now, n, size = _pop(h_t, h_e, h_n, size)
         k = next_k[n]
         nodes[e], ticks[e] = n, k
         e += 1
         k += 1
         next_k[n] = k
-        if k < K[n] and T[k, n] < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, now + (T[k, n] - now), eid, n)
+        if k < K[n] and T[n, k] < dead_at[n]:
+            size = _push(h_t, h_e, h_n, size, now + (T[n, k] - now), eid, n)
             eid += 1
-    return nodes, ticks
+    counters[0], counters[1] = size, eid
+    return e
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac, bits,
-               scratch, inbox, last_seq, streak, out, need, cursor, r_first, r_end):
-    """Run every event of ``order`` (from :func:`event_order`) in realizations ``r_first`` .. ``r_end - 1``
-    (module docstring; disjoint ranges may run on parallel threads, each with its own ``need`` and ``cursor``
-    (N,), the next survey of each node).  ``plan``
-    (K, N): each tick's code (:mod:`.tick_plan`); ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
+def forwarded_ages(t, src_offset, src_tick, t_above, t_two_above, age) -> None:
+    """``age[r, k]`` = t[k] - t_(n-s)[j] where phase 1 gave the node the estimate node n - s (``src_offset`` s = 1, 2)
+    read at its tick j (``src_tick``): the age :func:`_select` compared with ``max_update_age_s`` and the SimPy
+    engine records (the same two doubles subtracted); other ticks are left as they are."""
+    for r in range(src_offset.shape[0]):
+        for k in range(src_offset.shape[1]):
+            s = src_offset[r, k]
+            if s == 1:
+                age[r, k] = t[k] - t_above[src_tick[r, k]]
+            elif s == 2:
+                age[r, k] = t[k] - t_two_above[src_tick[r, k]]
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac,
+               bits, scratch, inbox, last_seq, streak, out, cursor, r_first, r_end):
+    """Run the events ``chunk`` = (nodes, ticks) from :func:`next_events`, the run's events ``e_first`` on, in
+    realizations ``r_first`` .. ``r_end - 1`` (module docstring; disjoint ranges may run on parallel threads).
+    ``T`` (N, K): the nodes' tick times; ``cursor`` = (next survey (R, N), next encoder request (R, N)) of each node,
+    kept from chunk to chunk (start: ``surveys`` first, ``nodes_cfg`` ask_first).  ``plan``
+    (N, K): each tick's code (:mod:`.tick_plan`); ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
     arrival (R, S), event (S,), skip (N,)): the surveys node n sends, ``first[n]`` .. ``stop[n] - 1`` in tick
     order, each at its tick, up to the top node of its time and the ground station (arrival NaN where lost; its
     event's index, written by realization 0; ``skip[h]``: node h may send a survey its neighbour above left
     unanswered on to node h - 2); ``nodes_cfg`` = (processing_s,
-    max_age_s, every_tick, ask_row (N,)); ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures,
-    min_margin_db); ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out`` = (running (K, N), applied (R, N, K), age,
-    src_node, src_tick (R, N, K), encoder t_read (R, A, K) (row ``ask_row[n]`` of the A nodes that ever ask), stale
-    (R, N), duplicate (R, N)); ``running`` is the
-    same in every realization and written by realization 0.  Links: down link h = h (0: the surface link, the encoder
+    max_age_s, every_tick, ask_first (N,): node n's first encoder request among all the run's, node by node);
+    ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures, min_margin_db); ``draws`` (R, L, 4): each
+    link's PCG64 state, ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out``: the :class:`Records` it fills (the
+    encoder requests node by node; ``running`` is the same in every realization and written by realization 0).  The age of a forwarded reference is not kept: it is
+    T[n, k] - T[n - s, j], which phase 2 computes again.  Links: down link h = h (0: the surface link, the encoder
     exchange of whichever node is on top), skip link of node n = N + n, up link h = 2N + h, survey skip link
     of node h (up to h - 2) = 3N + h.
     Returns a status code."""
-    N = T.shape[1]
-    ev_node, ev_tick = order
+    N = T.shape[0]
+    ev_node, ev_tick = chunk
     processing_s, max_age_s, every_tick = nodes_cfg[:3]
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     s_first, s_stop, s_tick, s_top, s_arrival, s_event, s_skip = surveys
-    ask_row = nodes_cfg[3]
-    running, applied, age, src_node, src_tick, enc_t_read, stale, dup = out
+    running, applied, src_offset, src_tick, ask_t_read, ask_age, stale, dup, _ = out  # a :class:`Records`
+    s_cursor, a_cursor = cursor
     i_count = inbox[4]
     surface = N
     for r in range(r_first, r_end):
-        for i in range(N):
-            cursor[i] = s_first[i]
-        for e in range(ev_node.shape[0]):
-            n, k = ev_node[e], ev_tick[e]
-            t = T[k, n]
-            code = plan[k, n]
+        for i in range(ev_node.shape[0]):
+            e = e_first + i
+            n, k = ev_node[i], ev_tick[i]
+            t = T[n, k]
+            code = plan[n, k]
             seq = e + 1
             if code == STATIC:
                 continue
@@ -224,59 +280,50 @@ def run_events(T, order, plan, dead_at, surveys, nodes_cfg, fallback, chan, marg
                 i_count[r, n] = 0  # nothing arrives from a powered-down link; the state is saved
             is_running = code == ASK or code == TOP or code == RUN
             if r == 0 and is_running:
-                running[k, n] = True
+                running[n, k] = True
             ready = t
             valid = every_tick and is_running
             if code == ASK:
-                got, arr, end, short, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac,
-                                                      bits, scratch)
-                if short:
-                    need[0], need[1], need[2] = 0, r, e
-                    return NEED_DRAWS
+                got, arr, end, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac, bits,
+                                               scratch)
                 t_read = arr if got else t
-                enc_t_read[r, ask_row[n], k] = t_read
+                a = a_cursor[r, n]
+                a_cursor[r, n] = a + 1
+                ask_t_read[r, a] = t_read
                 if got:
-                    have, arr2, end2, short, _, _ = transfer(0, r, end, surface, n, np.inf, chan, draws, radio,
-                                                             stats, mac, bits, scratch)
-                    if short:
-                        need[0], need[1], need[2] = 0, r, e
-                        return NEED_DRAWS
+                    have, arr2, end2, _, _ = transfer(0, r, end, surface, n, np.inf, chan, draws, radio, stats, mac,
+                                                      bits, scratch)
                     if have:
                         applied[r, n, k] = True
-                        age[r, n, k] = arr2 - t_read
+                        ask_age[r, a] = arr2 - t_read
                         ready = arr2
                         valid = True
-            elif code == RUN and _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_node, src_tick,
-                                         age, bits):
+            elif code == RUN and _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick,
+                                         bits):
                 applied[r, n, k] = True
                 valid = True
             if n < N - 1 and valid:
                 status = _send_estimate(r, e, n, k, seq, ready + processing_s, t, dead_at, fb_on, fb_link, fb_after,
                                         fb_min_margin, chan, margin, draws, radio, stats, mac, bits, scratch, inbox,
-                                        streak, need)
+                                        streak)
                 if status != DONE:
                     return status
-            while cursor[n] < s_stop[n] and s_tick[cursor[n]] == k:
-                s = cursor[n]
-                cursor[n] = s + 1
+            while s_cursor[r, n] < s_stop[n] and s_tick[s_cursor[r, n]] == k:
+                s = s_cursor[r, n]
+                s_cursor[r, n] = s + 1
                 if r == 0:
                     s_event[s] = e
-                status = _send_survey(r, e, n, s_top[s], ready, t, dead_at, s_skip, fb_min_margin, chan, margin,
-                                      draws, radio, stats, mac, bits, scratch, need, s_arrival, s)
-                if status != DONE:
-                    return status
+                _send_survey(r, n, s_top[s], ready, t, dead_at, s_skip, fb_min_margin, chan, margin, draws, radio,
+                             stats, mac, bits, scratch, s_arrival, s)
     return DONE
 
 
 @njit(cache=True, inline="always")
 def _send_estimate(r, e, n, k, seq, t_ready, t, dead_at, fb_on, fb_link, fb_after, fb_min_margin, chan, margin,
-                   draws, radio, stats, mac, bits, scratch, inbox, streak, need) -> int:
+                   draws, radio, stats, mac, bits, scratch, inbox, streak) -> int:
     """Node n's estimate frame down its link, with the fallback to the next-but-one node (a status code)."""
-    got, arr, end, short, c_try, c_ber = transfer(n + 1, r, t_ready, n, n + 1, dead_at[n + 1], chan, draws, radio,
-                                                  stats, mac, bits, scratch)
-    if short:
-        need[0], need[1], need[2] = n + 1, r, e
-        return NEED_DRAWS
+    got, arr, end, c_try, c_ber = transfer(n + 1, r, t_ready, n, n + 1, dead_at[n + 1], chan, draws, radio, stats,
+                                           mac, bits, scratch)
     if got and not _deliver(inbox, r, n + 1, seq, n, k, arr, c_try, c_ber):
         return INBOX_FULL
     if not fb_on[n] or math.isnan(end):  # fallback off, or the queue dropped the frame (faults.Fallback)
@@ -288,47 +335,37 @@ def _send_estimate(r, e, n, k, seq, t_ready, t, dead_at, fb_on, fb_link, fb_afte
     link = fb_link[n]
     g = time_row(chan, link, t)
     if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
-        got, arr, end, short, c_try, c_ber = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio,
-                                                      stats, mac, bits, scratch)
-        if short:
-            need[0], need[1], need[2] = link, r, e
-            return NEED_DRAWS
+        got, arr, end, c_try, c_ber = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio, stats,
+                                               mac, bits, scratch)
         if got and not _deliver(inbox, r, n + 2, seq, n, k, arr, c_try, c_ber):
             return INBOX_FULL
     return DONE
 
 
 @njit(cache=True, inline="always")
-def _send_survey(r, e, n, top, at, t, dead_at, skip_on, min_margin_db, chan, margin, draws, radio, stats, mac, bits,
-                 scratch, need, arrival, s) -> int:
+def _send_survey(r, n, top, at, t, dead_at, skip_on, min_margin_db, chan, margin, draws, radio, stats, mac, bits,
+                 scratch, arrival, s) -> None:
     """Node n's survey, ready at ``at``, hop by hop up to node ``top`` and the ground station: up link 2N + h from
     node h to h - 1 (hop 1's, 2N, from the top node to the surface); a hop left unanswered goes on over node h's
     survey skip link 3N + h to h - 2 where ``skip_on[h]``, h - 2 is not above the top node and the skip hop's margin
     at t is at least ``min_margin_db`` (:meth:`nodesim.chain.network.Network.send_survey`).  ``arrival[r, s]`` = its
-    arrival at the ground station (left NaN where lost); a status code."""
+    arrival at the ground station (left NaN where lost)."""
     N = dead_at.shape[0]
     surface = N
     h = n
     while h >= top:
         rx, up = (h - 1, 2 * N + h) if h > top else (surface, 2 * N)
-        got, arr, end, short, _, _ = transfer(up, r, at, h, rx, dead_at[rx] if h > top else np.inf, chan, draws,
-                                              radio, stats, mac, bits, scratch)
-        if short:
-            need[0], need[1], need[2] = up, r, e
-            return NEED_DRAWS
+        got, arr, end, _, _ = transfer(up, r, at, h, rx, dead_at[rx] if h > top else np.inf, chan, draws, radio,
+                                       stats, mac, bits, scratch)
         if got:
             at, h = arr, h - 1
             continue
         link = 3 * N + h
         if math.isnan(end) or not skip_on[h] or h - 2 < top or margin[r, link, time_row(chan, link, t)] < min_margin_db:
-            return DONE  # lost here
-        got, arr, end, short, _, _ = transfer(link, r, end, h, h - 2, dead_at[h - 2], chan, draws, radio, stats, mac,
-                                              bits, scratch)
-        if short:
-            need[0], need[1], need[2] = link, r, e
-            return NEED_DRAWS
+            return  # lost here
+        got, arr, end, _, _ = transfer(link, r, end, h, h - 2, dead_at[h - 2], chan, draws, radio, stats, mac, bits,
+                                       scratch)
         if not got:
-            return DONE
+            return
         at, h = arr, h - 2
     arrival[r, s] = at
-    return DONE

@@ -11,8 +11,8 @@ Arrays, realization-major so that one realization's state stays together in the 
 steps, R realizations, radios = nodes + the surface station):
 ``chan``  = (per_data (R, L, G), per_ack (R, L, G), rows (L,), step_s (L,), airtime_s (L,), ack_airtime_s (L,),
             burst (L, 5): has, p_good_to_bad, p_bad_to_good, loss_good, loss_bad, outages (L, O, 2), n_outages (L,))
-``draws`` = (buffer (D,), start (R, L), available (R, L), position (R, L)): each lane's uniforms of a link, in
-            stream order, as :class:`nodesim.chain.links.LossDraws` hands them out
+``draws`` = (R, L, 4) uint64: each lane's PCG64 state (:mod:`nodesim.rng.pcg64`), advanced as the lane draws its
+            uniforms, in the order :class:`nodesim.chain.links.LossDraws` hands them out
 ``radio`` = (busy_start, busy_end, free_at (R, radios), queue_end (R, radios, Q), tx_s, rx_s (R, radios))
 ``stats`` = (frames, delivered, attempts, dropped (R, L) int64, latency_sum_s (R, L), bad (R, L) bool)
 ``mac``   = (enabled, max_retries, queue_length, turnaround_s, ack_timeout_s, duty_cycle) as float64
@@ -20,8 +20,10 @@ steps, R realizations, radios = nodes + the surface station):
             frame, its layout and type, crc_rejected (R, L), undetected (R, L), then the receivers' records
             err_try, err_ber (R, N, K)): ``mac.bit_errors`` (:mod:`nodesim.chain.bit_errors`); ``scratch`` = (frame
             (bytes,) uint8, values (fields,) int64) work rows of this range of realizations
-A lane that runs out of buffered draws returns ``exhausted``: the caller buffers more and runs again from the start
-(draws come from the link's own stream, so a longer buffer changes nothing else).
+Each attempt takes its draws from the lane's stream as it needs them: the data draw, the ACK draw (MAC on), the burst
+state and burst loss draws (a Gilbert-Elliott link), ``per_attempt`` of them, whether it uses them all or not (the
+numpy MAC takes them in blocks of that size).  Drawing them here instead of from a buffer filled beforehand keeps
+~20 bytes a node-tick out of memory in a long run.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import numpy as np
 from numba import njit
 
 from nodesim.chain.bit_errors import frame_try
+from nodesim.rng.pcg64 import uniform
 
 
 @njit(cache=True)
@@ -56,14 +59,14 @@ def _in_outage(chan, link: int, t: float) -> bool:
 @njit(cache=True, inline="always")  # into phase 1's loop (events module docstring)
 def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: float, chan, draws, radio,
              stats, mac, bits, scratch):
-    """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, exhausted,
-    the delivered try's number where its bit errors passed the CRC (else -1), that try's BER)."""
+    """Send one frame at ``t_ready`` on ``link`` in realization ``r``: (delivered, arrival_s, end_s, the delivered
+    try's number where its bit errors passed the CRC (else -1), that try's BER)."""
     per_data, per_ack = chan[0], chan[1]
     airtime, ack_airtime = chan[4][link], chan[5][link]
     burst = chan[6]
     has_burst = burst[link, 0] > 0.0
     has_outages = chan[8][link] > 0
-    buf, d_start, d_avail, d_pos = draws
+    hi, lo, inc_hi, inc_lo = draws[r, link, 0], draws[r, link, 1], draws[r, link, 2], draws[r, link, 3]
     busy_start, busy_end, free_at, queue_end, tx_s, rx_s = radio
     frames, delivered_n, attempts_n, dropped, latency_sum, bad = stats
     enabled = mac[0] > 0.0
@@ -96,14 +99,13 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             if done:
                 break
             n_att += 1
-            p = d_pos[r, link]
-            if p + per_attempt > d_avail[r, link]:
-                return False, np.nan, np.nan, True, -1, 0.0
-            u0 = buf[d_start[r, link] + p]
-            u1 = buf[d_start[r, link] + p + 1] if per_attempt > 1 else 0.0
-            u_state = buf[d_start[r, link] + p + per_attempt - 2] if has_burst else 0.0
-            u_loss = buf[d_start[r, link] + p + per_attempt - 1] if has_burst else 0.0
-            d_pos[r, link] = p + per_attempt
+            u0, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
+            u1 = u_state = u_loss = 0.0
+            if enabled:
+                u1, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
+            if has_burst:
+                u_state, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
+                u_loss, hi, lo = uniform(hi, lo, inc_hi, inc_lo)
             g = time_row(chan, link, t)
             ok = u0 >= (bits[2][r, link, g] if errs else per_data[r, link, g])
             if not alive_always:
@@ -147,6 +149,7 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             wait_sum += wait
             done = done or acked
             t = max(t + airtime + wait, t + airtime / mac[5])
+    draws[r, link, 0], draws[r, link, 1] = hi, lo
     attempts_n[r, link] += n_att
     if enabled:
         if alive_always:
@@ -169,4 +172,4 @@ def transfer(link: int, r: int, t_ready: float, tx: int, rx: int, rx_dead_at_s: 
             if queue_end[r, tx, q] < queue_end[r, tx, slot]:
                 slot = q
         queue_end[r, tx, slot] = t
-    return got, arrival, end, False, c_try, c_ber
+    return got, arrival, end, c_try, c_ber

@@ -16,17 +16,17 @@ def run(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, encoder_
     """Node index ``n``'s 6-state filter from its start tick ``n_static`` (``encoder_reads``: the engine's
     (ask ticks, t_read, yaw, rate) of its encoder replies); writes the node's records."""
     node, sig = net.nodes[n], net.nodes[n].sig
-    src_node, src_tick = out[3], out[4]
     t, R = sig.t_s, net.R
     K = t.size
+    src_tick = out.src_tick[:, n, :K]
     node.kf = kf = SixStateLanes(net.scenario, sig, n_static, net.encoder.read(t[n_static])[0])
     node._record(n_static)
-    enc_ref, offset, up = float_references(net, n, encoder_reads, src_node)
+    enc_ref, offset, up = float_references(net, n, encoder_reads, out.src_offset)
     rates = np.ascontiguousarray(kf.rates)
 
     def run_range(r0: int, r1: int) -> None:
         ssk.run_node(kf.states, kf.params, kf.singular_ticks, rates, sig.gyro_rad_s, t, n_static + 1, k_end, codes,
-                     enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick[:, n, :K], *up, net.dt_s,
+                     enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick, *up, net.dt_s,
                      net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2, node.yaw, node.var,
                      node.bias, node.ref_yaw, node.ref_var, r0, r1)
 

@@ -40,9 +40,9 @@ def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: floa
 
 
 def tick_plan(nodes, Kmax: int) -> np.ndarray:
-    """(Kmax, N) int8 codes of every node (tick-major, as phase 1 walks the events), ``ABSENT`` past a node's end."""
-    plan = np.full((Kmax, len(nodes)), ABSENT, dtype=np.int8)
+    """(N, Kmax) int8 codes of every node (a row per node, as its tick times), ``ABSENT`` past a node's end."""
+    plan = np.full((len(nodes), Kmax), ABSENT, dtype=np.int8)
     for n, node in enumerate(nodes):
         t = node.t_s
-        plan[:t.size, n] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
+        plan[n, :t.size] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
     return plan

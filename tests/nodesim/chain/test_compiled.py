@@ -203,15 +203,24 @@ def test_a_queue_drop_during_fallback_does_not_silence_the_sender(name, node):
         assert late.sum(axis=1).min() >= 10
 
 
-def test_phase_1_restarts_do_not_grow_with_the_realizations(monkeypatch):
-    """A lane that runs out of draws grows its whole link, so a fallback link needs a few restarts, not ~2 R."""
-    calls = []
-    original = engine._Links.more
-    monkeypatch.setattr(engine._Links, "more", lambda self, *a: (calls.append(a), original(self, *a)))
-    over = {**CASES["dead node, fallback"], "simulation.realizations": 64, "simulation.engine": "compiled"}
-    run = simulate_chain(Scenario().with_overrides(**over))
-    assert (run.skip_links[0].stats.frames > 100).all()
-    assert 1 <= len(calls) <= 6
+@pytest.mark.parametrize("name", ["dead node, fallback", "drilling, lossy hops with ARQ"])
+def test_phase_1_in_small_chunks_and_after_a_restart_gives_the_same_run(monkeypatch, name):
+    """Phase 1 takes the events in chunks (each run in every realization, the lanes' states kept between them) and
+    starts again from scratch when an inbox fills (here: said to have filled once the events were half done):
+    neither changes a record."""
+    over = {**CASES[name], "simulation.engine": "compiled"}
+    whole = simulate_chain(Scenario().with_overrides(**over))
+    run_events, calls = engine.ev.run_events, []
+
+    def full_once(T, chunk, e_first, *rest):
+        status = run_events(T, chunk, e_first, *rest)
+        calls.append(e_first)
+        return engine.ev.INBOX_FULL if len(calls) == 40 else status
+
+    monkeypatch.setattr(engine.ev, "CHUNK_EVENTS", 7)  # many chunks, odd sized
+    monkeypatch.setattr(engine.ev, "run_events", full_once)
+    assert_identical(whole, simulate_chain(Scenario().with_overrides(**over)))
+    assert calls.count(0) == 2  # it did start again
 
 
 def test_drilling_cases_exercise_insertions_holds_and_surveys():
