@@ -243,7 +243,7 @@ class FilterSection(_Section):
         "a long string. Default: 'static' for the float filter, 'off' for the fixed one (which does not have it yet)")
     levelling_rate_deg_s: float = Field(
         0.5, gt=0.0, le=100.0, description="states = 6, levelling = 'static': a tick is static when the norm of "
-        "the bias-compensated gyro rates is below this")
+        "the gyro rates minus the start bias (the static window's) is below this")
     implementation: Literal["float", "fixed"] = "float"
     fixed_word_bits: int = Field(
         32, ge=12, le=32, description="fixed: MCU word length; fewer bits keep each variable's range, lose "
