@@ -69,6 +69,20 @@ Neither is exact there; both keep every number finite and the count says how oft
 "rotation" strapdown keeps the attitude itself exact through the singularity; the "euler" one uses the same E as
 its Phi (held, or I3 with "decouple").
 Outside the margin the filter is the thesis's.
+
+Levelling (``levelling``, issue 24 item 2; used by the chain lanes, nodesim.chain.compiled.six_state_float_kernel):
+at a tick where the node is static, its accelerometer's roll and pitch are measurements of the filter's roll and
+pitch, the thesis's attitude measurement of eqs 3.27-3.31 (H = [I3 0] on the roll and pitch rows) with the roll
+and pitch taken from gravity the way the thesis resolves the accelerometers at every survey station (sec 3.5,
+eqs 1.1-1.3, 4.3) instead of from the node above (tubes differ in roll and pitch).  Static: the rate compensated by the
+start bias (the static window's) |omega_meas - b_0| < ``levelling_rate_rad_s``.  With f the tick's mean specific force (sensor frame, nav z up):
+    phi_m = atan2(f_y, f_z),   theta_m = atan2(-f_x, sqrt(f_y^2 + f_z^2))
+    R_phi = sigma_f^2 / (f_y^2 + f_z^2),   R_theta = sigma_f^2 / |f|^2   (first-order propagation of independent
+    per-axis noise sigma_f = ``levelling_force_sigma_m_s2``; the two errors are uncorrelated)
+applied as two scalar updates (rows e1, e2; equal to the joint update with diagonal R).  The roll is skipped where
+sqrt(f_y^2 + f_z^2) < |f| sin(singularity margin) (near horizontal it is undefined).  Without it, yaw-only
+references leave roll, pitch and the x, y biases unobservable in a static string, and the EKF, linearised at its
+own drifting estimate, lets them run away (docs/deviated_wells.md).
 """
 
 from __future__ import annotations
@@ -122,6 +136,9 @@ class SixStateFilterConfig:
     singularity_margin_rad: float = math.radians(5.0)
     singularity: str = "hold"
     discretisation: str = "rotation"
+    levelling: bool = False
+    levelling_rate_rad_s: float = math.radians(0.5)
+    levelling_force_sigma_m_s2: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("arw_rad_per_sqrt_s", "bias_instability_rad_s", "bias_tau_s", "initial_angle_sigma_rad",
@@ -145,6 +162,10 @@ class SixStateFilterConfig:
         for axis, tau in zip("xyz", self.bias_tau_s):
             if self.dt_s >= tau:
                 raise FirmwareError(f"SixStateFilterConfig.dt_s = {self.dt_s}: must be < bias_tau_s ({axis}) = {tau}")
+        for name in ("levelling_rate_rad_s", "levelling_force_sigma_m_s2"):
+            v = getattr(self, name)
+            if self.levelling and not (math.isfinite(v) and v > 0):
+                raise FirmwareError(f"SixStateFilterConfig.{name} = {v} with levelling: allowed finite values > 0")
         m = self.singularity_margin_rad
         if not (math.isfinite(m) and 0.0 < m < math.pi / 2):
             raise FirmwareError(f"SixStateFilterConfig.singularity_margin_rad = {m}: allowed 0 < margin < pi/2")

@@ -13,6 +13,7 @@ from the sensor counts on (:class:`FirmwareLanes`, the same njit code as the com
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -53,12 +54,16 @@ def require_engine_filter(scenario: Scenario) -> None:
 def six_state_config(scenario: Scenario) -> SixStateFilterConfig:
     """The 6-state filter's tuning (thesis eqs 3.24-3.26, 4.14-4.15): the 2-state tuning on all three gyro axes
     (the chain's IMU model gives one Allan pair) and ``filter.singularity_margin_deg``, ``singularity``,
-    ``discretisation``."""
+    ``discretisation``, ``levelling`` (its force sigma: the accelerometer's noise density over a tick,
+    sigma_f = N_a / sqrt(dt), as nodesim.chain.sensing gives the node's tick mean)."""
     f = scenario.filter
     try:
         return SixStateFilterConfig.from_yaw_config(
             _yaw_filter_config(scenario), singularity_margin_rad=f.singularity_margin_deg * DEG,
-            singularity=f.singularity, discretisation=f.discretisation)
+            singularity=f.singularity, discretisation=f.discretisation, levelling=f.levelling_mode == "static",
+            levelling_rate_rad_s=f.levelling_rate_deg_s * DEG,
+            levelling_force_sigma_m_s2=ChainImu.from_scenario(scenario).accel_density_m_s2_per_sqrt_hz
+            * math.sqrt(scenario.chain.firmware_rate_hz))
     except FirmwareError as err:
         raise NodesimError(f"filter (states = 6): {err}") from None
 

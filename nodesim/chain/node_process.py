@@ -169,7 +169,10 @@ class ChainNode:
             elif tl.holding(t):
                 self.inbox.clear()  # nothing arrives from a powered-down link; the state is saved
             else:
-                self.kf.predict(self.kf.rates[:, k] if self.net.scenario.filter.states == 6 else sig.gyro_rad_s[:, k])
+                if self.net.scenario.filter.states == 6:  # the time update, then the levelling at a static tick
+                    self.kf.predict(self.kf.rates[:, k], sig.specific_force[:, k])
+                else:
+                    self.kf.predict(sig.gyro_rad_s[:, k])
                 if tl.is_top(t):
                     if self.scheduled[k]:
                         self._encoder_update(k, t)

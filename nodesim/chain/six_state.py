@@ -73,10 +73,14 @@ class SixStateLanes:
         return (f"SixStateLanes(realizations={self.realizations}, discretisation={self.config.discretisation!r}, "
                 f"singularity={self.config.singularity!r}, singular_ticks={int(self.singular_ticks.sum())})")
 
-    def predict(self, rates_rad_s: np.ndarray) -> None:
-        """Time update of every lane with the tick's rates (R, 3)."""
-        ssk.predict_lanes(self.states, np.ascontiguousarray(rates_rad_s), self.params, self.singular_ticks,
-                          np.ones(self.realizations, dtype=np.bool_))
+    def predict(self, rates_rad_s: np.ndarray, force_m_s2: np.ndarray | None = None) -> None:
+        """Time update of every lane with the tick's rates (R, 3), then, given the tick's specific force (R, 3), the
+        levelling update at a static tick (:func:`.six_state_float_kernel.level_update`; ``filter.levelling``)."""
+        rates = np.ascontiguousarray(rates_rad_s)
+        on = np.ones(self.realizations, dtype=np.bool_)
+        ssk.predict_lanes(self.states, rates, self.params, self.singular_ticks, on)
+        if force_m_s2 is not None:
+            ssk.level_lanes(self.states, rates, np.ascontiguousarray(force_m_s2), self.params, on)
 
     def update(self, reference_yaw_rad, reference_variance_rad2, mask=None) -> None:
         """Twist update in the lanes of ``mask`` (all without one)."""

@@ -218,7 +218,8 @@ class FilterSection(_Section):
     three biases, eqs 3.22-3.26: firmware_model.six_state_filter, issue 24).  The 6-state filter exists in float
     (both chain engines run it) and in fixed point (firmware_model.six_state_fixed: "rotation" only, 32-bit words),
     both chain engines run as the node firmware of firmware_model.six_state_firmware with ``implementation = "fixed"``.
-    ``singularity_margin_deg``, ``singularity`` and ``discretisation`` are its settings (only with 6)."""
+    ``singularity_margin_deg``, ``singularity``, ``discretisation``, ``levelling`` and ``levelling_rate_deg_s``
+    are its settings (only with 6)."""
 
     states: Literal[2, 6] = Field(
         2, description="node filter states: 2 = (yaw, z-gyro bias), the near-vertical form; 6 = the thesis's (roll, "
@@ -234,6 +235,15 @@ class FilterSection(_Section):
         "rotation", description="states = 6: 'rotation' = the exact tick at a constant rate (direction cosine "
         "strapdown, Phi its Jacobian); 'euler' = Phi = I + F dt (thesis digest 2.5), unstable under string "
         "rotation (roll/pitch errors grow sqrt(1 + (w dt)^2) per tick)")
+    levelling: Literal["static", "off"] | None = Field(
+        None, description="states = 6: 'static' = at every tick the node is static (gyro rate minus its start bias "
+        "below levelling_rate_deg_s) its accelerometer's roll and pitch update the filter (thesis eqs 3.27-3.31 on "
+        "the roll/pitch rows, resolved from gravity as at a survey station, eqs 1.1-1.3; docs/deviated_wells.md); "
+        "'off' = yaw-only references, with which roll, pitch and the x, y biases are unobservable and run away in "
+        "a long string. Default: 'static' for the float filter, 'off' for the fixed one (which does not have it yet)")
+    levelling_rate_deg_s: float = Field(
+        0.5, gt=0.0, le=100.0, description="states = 6, levelling = 'static': a tick is static when the norm of "
+        "the gyro rates minus the start bias (the static window's) is below this")
     implementation: Literal["float", "fixed"] = "float"
     fixed_word_bits: int = Field(
         32, ge=12, le=32, description="fixed: MCU word length; fewer bits keep each variable's range, lose "
@@ -263,17 +273,28 @@ class FilterSection(_Section):
                 raise ValueError(f"filter.discretisation = {self.discretisation!r} with filter.states = 6 and "
                                  "filter.implementation = 'fixed': the fixed-point 6-state filter implements only "
                                  "'rotation' (firmware_model.six_state_fixed); allowed: discretisation = 'rotation'")
+            if self.levelling == "static":
+                raise ValueError("filter.levelling = 'static' with filter.states = 6 and filter.implementation = "
+                                 "'fixed': the fixed-point 6-state firmware has no levelling update yet; allowed: "
+                                 "'off' (or implementation = 'float')")
             if self.fixed_word_bits != 32:
                 raise ValueError(f"filter.fixed_word_bits = {self.fixed_word_bits} with filter.states = 6 and "
                                  "filter.implementation = 'fixed': the fixed-point 6-state filter is built for "
                                  "32-bit words; allowed: 32")
         if self.states == 2:
-            for key in ("singularity_margin_deg", "singularity", "discretisation"):
+            for key in ("singularity_margin_deg", "singularity", "discretisation", "levelling", "levelling_rate_deg_s"):
                 value, default = getattr(self, key), type(self).model_fields[key].default
                 if value != default:
                     raise ValueError(f"filter.{key} = {value!r} is only used with filter.states = 6 "
                                      f"(filter.states is 2)")
         return self
+
+    @property
+    def levelling_mode(self) -> str:
+        """``levelling`` with its default resolved: 'static' for the float 6-state filter, 'off' for the fixed one."""
+        if self.levelling is not None:
+            return self.levelling
+        return "static" if self.implementation == "float" else "off"
 
 
 class FirmwareSection(_Section):

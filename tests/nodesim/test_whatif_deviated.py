@@ -5,8 +5,11 @@ string at 2, 15, 45 and 80 deg, with the 2-state and the 6-state filter (docs/de
 - the 2-state filter does not degrade with inclination (within 10 % of its 2 deg error at every inclination): the
   z gyro measures the twist rate about the tube axis, which is what it integrates and what the chain passes down,
   whatever the tilt (nodesim.sensors.chain_imu: the transverse gyros see no true rate);
-- so there is no inclination in 2-80 deg where the 2-state yaw error is 2x the 6-state's: the ratio (2-state /
-  6-state), interpolated linearly between the four, stays below 2;
+- the 6-state filter with its levelling update (filter.levelling = "static", the float default) matches the 2-state
+  one up to 45 deg (ratio within 10 % of 1) and beats it at 80 deg (measured 2.00): at high inclination the
+  accelerometers at the static ticks measure the rotation about the tube axis relative to the high side (the
+  gravity toolface, the gamma of the Z-Y-Z angles whose sum is the twist), which near vertical they cannot;
+  with levelling "off" the 80 deg ratio is lower (docs/deviated_wells.md);
 - no 6-state tick comes within the 5 deg singularity margin at these inclinations.
 """
 
@@ -45,11 +48,18 @@ def test_two_state_yaw_error_does_not_grow_with_inclination(results):
     assert np.all(np.abs(e / e[0] - 1.0) <= 0.10), e
 
 
-def test_no_inclination_up_to_80_deg_where_the_two_state_error_is_twice_the_six_state(results):
-    inc = np.array(list(NAMES))
-    ratio = np.array([results[i][2]["rms_yaw_error_deg"] / results[i][6]["rms_yaw_error_deg"] for i in NAMES])
-    fine = np.linspace(inc[0], inc[-1], 157)
-    assert np.all(np.interp(fine, inc, ratio) < 2.0), ratio
+def test_six_state_equals_two_state_up_to_45_deg_and_beats_it_at_80_deg(results):
+    ratio = {i: results[i][2]["rms_yaw_error_deg"] / results[i][6]["rms_yaw_error_deg"] for i in NAMES}
+    assert all(abs(ratio[i] - 1.0) <= 0.10 for i in (2.0, 15.0, 45.0)), ratio
+    assert ratio[80.0] >= 1.5, ratio
+
+
+def test_the_80_deg_gain_comes_from_the_levelling():
+    with resources.as_file(resources.files("scenarios") / "whatif" / NAMES[80.0]) as p:
+        s, _ = load_scenario(p)
+    err = {lv: summarize(per_realization_metrics(simulate_chain(x), x.metrics))["rms_yaw_error_deg"]
+           for lv, x in ((lv, s.with_overrides(**{"filter.levelling": lv})) for lv in ("static", "off"))}
+    assert err["static"] < 0.9 * err["off"], err
 
 
 def test_no_singular_ticks_at_these_inclinations(results):

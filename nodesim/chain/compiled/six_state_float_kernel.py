@@ -3,7 +3,7 @@ one realization, and the chain's per-node loop over it; both chain engines run t
 through :class:`nodesim.chain.six_state.SixStateLanes`), so they agree bit for bit.
 
 Lane state (``STATE_SIZE`` float64): attitude (phi, theta, psi) [rad], gyro bias (x, y, z) [rad/s], P (6 x 6,
-row-major).  The maths is the module docstring of :mod:`firmware_model.six_state_filter` (thesis eqs 3.21-3.26,
+row-major), the start bias b_0 (x, y, z) [rad/s] (the static window's, kept for the levelling's static test).  The maths is the module docstring of :mod:`firmware_model.six_state_filter` (thesis eqs 3.21-3.26,
 3.31, 4.14-4.15; "rotation" and "euler" discretisation, "hold" and "decouple" inside the singularity margin),
 written out per lane; tests/nodesim/chain/test_six_state_chain.py checks it against that filter step by step.
 
@@ -31,11 +31,13 @@ from firmware_model.six_state_filter import SixStateFilterConfig
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.filters import forwarded_reference
 
-ATT, BIAS, P = 0, 3, 6
-STATE_SIZE = 42
-# params: dt, tau (3), diag Q (6, eq 3.26), A, G_D, sin(margin), cos(margin), hold, decouple, rotation
+ATT, BIAS, P, BIAS0 = 0, 3, 6, 42
+STATE_SIZE = 45
+# params: dt, tau (3), diag Q (6, eq 3.26), A, G_D, sin(margin), cos(margin), hold, decouple, rotation, levelling,
+# its static rate threshold [rad/s] and its per-axis force variance [(m/s^2)^2]
 P_DT, P_TAU, P_Q, P_A, P_BG, P_SIN_M, P_COS_M, P_HOLD, P_DECOUPLE, P_ROTATION = 0, 1, 4, 10, 11, 12, 13, 14, 15, 16
-N_PARAMS = 17
+P_LEVEL, P_LEVEL_RATE, P_LEVEL_VAR = 17, 18, 19
+N_PARAMS = 20
 SMALL_ANGLE = 1e-4  # as firmware_model.six_state_filter._SMALL_ANGLE
 
 
@@ -50,6 +52,8 @@ def kernel_params(config: SixStateFilterConfig) -> np.ndarray:
     p[P_HOLD] = float(config.singularity == "hold")
     p[P_DECOUPLE] = float(config.singularity == "decouple")
     p[P_ROTATION] = float(config.discretisation == "rotation")
+    p[P_LEVEL] = float(config.levelling)
+    p[P_LEVEL_RATE], p[P_LEVEL_VAR] = config.levelling_rate_rad_s, config.levelling_force_sigma_m_s2**2
     return p
 
 
@@ -58,7 +62,8 @@ def init_states(config: SixStateFilterConfig, attitude_rad: np.ndarray, bias_rad
     R = attitude_rad.shape[0]
     s = np.zeros((R, STATE_SIZE))
     s[:, ATT:ATT + 3], s[:, BIAS:BIAS + 3] = attitude_rad, bias_rad_s
-    s[:, P:] = config.p0.ravel()
+    s[:, P:P + 36] = config.p0.ravel()
+    s[:, BIAS0:BIAS0 + 3] = bias_rad_s
     return s
 
 
@@ -281,6 +286,46 @@ def update_row(state, h, z: float, var_rad2: float) -> None:
 
 
 @njit(cache=True)
+def level_update(state, rates, force, params) -> bool:
+    """The accelerometer's roll and pitch as measurements at a static tick (firmware_model.six_state_filter, module
+    docstring "Levelling"; thesis eqs 3.27-3.31 on the roll and pitch rows, the resolution of eqs 1.1-1.3):
+    static if |rates - b_0| < the threshold (b_0 the start bias: the static test must not hang on the estimate it
+    is meant to correct, whose x, y components a long string's twist innovations can pull far off); phi_m = atan2(f_y, f_z), theta_m = atan2(-f_x, |(f_y, f_z)|),
+    R_phi = sigma_f^2 / (f_y^2 + f_z^2), R_theta = sigma_f^2 / |f|^2, two scalar updates (roll skipped near
+    horizontal).  ``rates`` (3,) the tick's gyro rates [rad/s], ``force`` (3,) its mean specific force [m/s^2];
+    True if the tick was static and updated."""
+    if params[P_LEVEL] == 0.0:
+        return False
+    w2 = 0.0
+    for i in range(3):
+        w2 += (rates[i] - state[BIAS0 + i]) ** 2
+    if w2 >= params[P_LEVEL_RATE] ** 2:
+        return False
+    fx, fy, fz = force[0], force[1], force[2]
+    nyz2 = fy * fy + fz * fz
+    f2 = fx * fx + nyz2
+    if not f2 > 0.0:
+        return False
+    var = params[P_LEVEL_VAR]
+    h = np.zeros(6)
+    if nyz2 >= f2 * params[P_SIN_M] ** 2:  # roll defined: |(f_y, f_z)| >= |f| sin(margin)
+        h[0] = 1.0
+        update_row(state, h, wrap_pi_closed(state[ATT] - math.atan2(fy, fz)), var / nyz2)
+        h[0] = 0.0
+    h[1] = 1.0
+    update_row(state, h, wrap_pi_closed(state[ATT + 1] - math.atan2(-fx, math.sqrt(nyz2))), var / f2)
+    return True
+
+
+@njit(cache=True, nogil=True)
+def level_lanes(states, rates, force, params, mask) -> None:
+    """:func:`level_update` in every lane r with ``mask[r]`` (rates, force (R, 3))."""
+    for r in range(states.shape[0]):
+        if mask[r]:
+            level_update(states[r], rates[r], force[r], params)
+
+
+@njit(cache=True)
 def update(state, ref_yaw_rad: float, var_rad2: float) -> None:
     """Euler-yaw update (eq 3.31, H = e3^T, as firmware_model.six_state_filter.SixStateFilter.update):
     z = wrap(psi - ref) into (-pi, pi]."""
@@ -353,11 +398,12 @@ def twist_lanes(states, out) -> None:
 
 
 @njit(cache=True, nogil=True)
-def run_node(states, params, singular, rates, gyro_z, t, k_first, k_end, codes, enc_ref, enc_var, applied,
+def run_node(states, params, singular, rates, force, gyro_z, t, k_first, k_end, codes, enc_ref, enc_var, applied,
              src_node, src_tick, up_t, up_yaw, up_var, dt_s, extrapolate, rate_sigma, offset_var, yaw, var, bias,
              ref_yaw, ref_var, r_first, r_end) -> None:
     """The compiled engine's phase 2 for one node (as :func:`nodesim.chain.compiled.filters.run_node`, with the
-    6-state lane): ``rates`` (R, K, 3) the filter's gyro input, ``gyro_z`` (R, K) the z rate the forwarded
+    6-state lane): ``rates`` (R, K, 3) the filter's gyro input, ``force`` (R, K, 3) the tick's specific force (the
+    levelling at static ticks, :func:`level_update`, after the time update), ``gyro_z`` (R, K) the z rate the forwarded
     reference is advanced with (eq 3.29, :func:`.filters.forwarded_reference`); records the twist, its variance
     and the z-bias."""
     for r in range(r_first, r_end):
@@ -369,6 +415,7 @@ def run_node(states, params, singular, rates, gyro_z, t, k_first, k_end, codes, 
             if c != tp.HOLD:
                 if predict(st, rates[r, k], params):
                     singular[r] += 1
+                level_update(st, rates[r, k], force[r, k], params)
             if c == tp.ASK:
                 if applied[r, k]:
                     update_twist(st, enc_ref[r, k], enc_var)

@@ -25,7 +25,8 @@ def run(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, encoder_
     rates = np.ascontiguousarray(kf.rates)
 
     def run_range(r0: int, r1: int) -> None:
-        ssk.run_node(kf.states, kf.params, kf.singular_ticks, rates, sig.gyro_rad_s, t, n_static + 1, k_end, codes,
+        ssk.run_node(kf.states, kf.params, kf.singular_ticks, rates, sig.specific_force, sig.gyro_rad_s, t,
+                     n_static + 1, k_end, codes,
                      enc_ref, net.encoder.variance_rad2, node.applied, offset, src_tick, *up, net.dt_s,
                      net.extrapolate_rate, sig.gyro_white_sigma_rad_s, net.offset_sigma_rad**2, node.yaw, node.var,
                      node.bias, node.ref_yaw, node.ref_var, r0, r1)

@@ -45,7 +45,7 @@ def test_lane_kernel_follows_the_six_state_filter(discretisation, singularity):
         np.testing.assert_allclose(lanes[:, :3], ref.attitude_rad, rtol=0, atol=1e-9)
         np.testing.assert_allclose(lanes[:, 3:6], ref.bias_rad_s, rtol=0, atol=1e-12)
         # P to rounding, normwise per element: |dP_ij| <= 1e-9 sqrt(P_ii P_jj) (off-diagonal terms cancel)
-        p, want = lanes[:, 6:].reshape(R, 6, 6), ref.covariance
+        p, want = lanes[:, ssk.P:ssk.P + 36].reshape(R, 6, 6), ref.covariance
         d = np.sqrt(np.einsum("rii->ri", want))
         assert np.all(np.abs(p - want) <= 1e-9 * d[:, :, None] * d[:, None, :])
     np.testing.assert_array_equal(singular, ref.singular_ticks)
