@@ -35,6 +35,7 @@ import math
 import warnings
 
 import numpy as np
+from numba import njit
 
 from firmware_model.survey_resolution import circular_moving_average, trailing_moving_average
 from nodesim.chain.linkmetrics import link_metrics
@@ -145,7 +146,6 @@ def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> 
         node, motion.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
     )
     nan = np.full(R, np.nan)
-    since = _time_since_update(node)[:, sel] if sel.any() else np.full((R, 1), np.nan)
     return {
         "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if sel.any() else nan,
         "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if sel.any() else nan,
@@ -155,17 +155,37 @@ def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> 
         "bias_converged_fraction": np.isfinite(convergence).astype(float),
         "update_fraction": node.update_mask[:, sel].mean(axis=1) if sel.any() else nan,
         "mean_update_age_s": age,
-        "max_time_since_update_s": since.max(axis=1),
+        "max_time_since_update_s": max_time_since_update_s(node, sel),
     }
 
 
-def _time_since_update(node: NodeRun) -> np.ndarray:
-    """(R, K) time since the last applied update (or since the filter start), NaN before the start."""
-    t = node.t_s
-    last = np.where(node.update_mask, t[None, :], -np.inf)
-    last = np.maximum.accumulate(last, axis=1)
-    start = node.filter_start_s
-    return np.where(t[None, :] >= start, t[None, :] - np.maximum(last, start), np.nan)
+def max_time_since_update_s(node: NodeRun, sel: np.ndarray) -> np.ndarray:
+    """(R,) the longest time since the last applied update (or since the filter start, when later) over the ticks
+    ``sel``: max over k in sel of t_k - max(t_last update <= k, t_start), NaN where a tick of ``sel`` lies before
+    the start (or ``sel`` is empty).  One compiled pass (:func:`_max_time_since_update`) instead of four (R, K)
+    arrays: the same values (a max of the same differences)."""
+    out = np.full(node.update_mask.shape[0], np.nan)
+    if sel.any():
+        _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
+                               np.ascontiguousarray(sel), float(node.filter_start_s), out)
+    return out
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def _max_time_since_update(t, update, sel, start, out) -> None:
+    """``out[r]`` = :func:`max_time_since_update_s` of realization r (numpy's max: NaN if any value is NaN)."""
+    for r in range(update.shape[0]):
+        last, best, seen_nan = -np.inf, -np.inf, False
+        for k in range(t.size):
+            if update[r, k]:
+                last = max(last, t[k])
+            if sel[k]:
+                v = t[k] - max(last, start) if t[k] >= start else np.nan
+                if np.isnan(v):
+                    seen_nan = True
+                elif v > best:
+                    best = v
+        out[r] = np.nan if seen_nan else best
 
 
 def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, np.ndarray]:

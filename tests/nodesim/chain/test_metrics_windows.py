@@ -44,3 +44,27 @@ def test_the_bias_converges_at_the_first_run_of_hold_ticks_inside_the_band(seed,
         ok = np.abs(node.bias_est_rad_s[r, idx] - node.true_bias_rad_s[r, idx]) <= tol
         first = next((i for i in range(ok.size - h + 1) if ok[i:i + h].all()), None)
         assert (np.isnan(got[r]) if first is None else got[r] == node.t_s[idx[first]] - after), (r, first, got[r])
+
+
+@pytest.mark.parametrize("seed, start_tick, keep_before_start", [(1, 100, False), (2, 100, True), (3, 0, True),
+                                                                 (4, 3990, False)])
+def test_the_longest_time_since_an_update_is_numpys_max_over_the_metric_ticks(seed, start_tick, keep_before_start):
+    """Against the (R, K) definition: since = t - max(last update, start), NaN before the start, max over sel
+    (numpy's max: NaN as soon as one selected tick is before the start)."""
+    from nodesim.chain.metrics import max_time_since_update_s
+
+    node = _node(seed)
+    rng = np.random.default_rng(seed + 20)
+    node.update_mask = rng.random(node.bias_est_rad_s.shape) > 0.97
+    node.filter_start_s = float(node.t_s[start_tick])
+    sel = rng.random(node.t_s.size) > 0.5
+    sel[-1] = True
+    if not keep_before_start:
+        sel[:start_tick] = False
+    t = node.t_s
+    last = np.maximum.accumulate(np.where(node.update_mask, t[None, :], -np.inf), axis=1)
+    since = np.where(t[None, :] >= node.filter_start_s, t[None, :] - np.maximum(last, node.filter_start_s), np.nan)
+    want = since[:, sel].max(axis=1)
+    got = max_time_since_update_s(node, sel)
+    assert np.array_equal(got, want, equal_nan=True) and np.isnan(got).all() == (keep_before_start and start_tick > 0)
+    assert np.isnan(max_time_since_update_s(node, np.zeros(t.size, bool))).all()
