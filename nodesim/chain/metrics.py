@@ -35,6 +35,7 @@ import math
 import warnings
 
 import numpy as np
+from numba import njit
 
 from firmware_model.survey_resolution import circular_moving_average, trailing_moving_average
 from nodesim.chain.linkmetrics import link_metrics
@@ -61,15 +62,22 @@ def _rms(x: np.ndarray, axis: int = -1) -> np.ndarray:
 
 
 def metric_ticks(node: NodeRun, windows) -> np.ndarray:
-    """(K,) bool: the node's ticks inside any metrics window where its filter runs."""
+    """(K,) bool: the node's ticks inside any metrics window [a, b] where its filter runs.  The tick times
+    increase (:func:`nodesim.chain.faults.stepped_ticks`), so a window is the index range
+    [searchsorted(t, a, left), searchsorted(t, b, right)): O(K + W log K) for W windows (a drilling day has one
+    per survey stop, ~200, over ~160 k ticks a node; comparing every tick with every window took ~13 ms a node)."""
     sel = np.zeros(node.t_s.shape, dtype=bool)
-    for a, b in windows:
-        sel |= (node.t_s >= a) & (node.t_s <= b)
+    if windows:
+        a, b = np.asarray(windows, dtype=float).T
+        for lo, hi in zip(np.searchsorted(node.t_s, a, side="left"), np.searchsorted(node.t_s, b, side="right")):
+            sel[lo:hi] = True
     return sel & node.running
 
 
 def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: float, hold_s: float) -> np.ndarray:
-    """Per realization: first time after ``after_s`` from which |b_hat - b| <= tol for ``hold_s``."""
+    """Per realization: first time after ``after_s`` from which |b_hat - b| <= tol for ``hold_s`` (h =
+    ceil(hold_s / dt) ticks in a row: the first i of the running ticks after ``after_s`` with
+    c[i + h] - c[i] = h, c the running count of the ticks inside the band, O(K) whatever h)."""
     t = node.t_s
     idx_after = np.flatnonzero((t >= after_s) & node.running)
     inside = np.abs(node.bias_est_rad_s - node.true_bias_rad_s) <= tolerance_rad_s
@@ -77,11 +85,11 @@ def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: floa
     hold_ticks = max(int(math.ceil(hold_s / dt)), 1)
     out = np.full(inside.shape[0], np.nan)
     for r in range(inside.shape[0]):
-        ok = inside[r, idx_after].astype(int)
+        ok = inside[r, idx_after]
         if ok.size < hold_ticks:
             continue
-        run_len = np.convolve(ok, np.ones(hold_ticks, dtype=int), mode="valid")
-        hits = np.flatnonzero(run_len == hold_ticks)
+        count = np.concatenate(([0], np.cumsum(ok, dtype=np.int64)))
+        hits = np.flatnonzero(count[hold_ticks:] - count[:-hold_ticks] == hold_ticks)
         if hits.size:
             out[r] = t[idx_after[hits[0]]] - after_s
     return out
@@ -138,7 +146,6 @@ def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> 
         node, motion.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
     )
     nan = np.full(R, np.nan)
-    since = _time_since_update(node)[:, sel] if sel.any() else np.full((R, 1), np.nan)
     return {
         "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if sel.any() else nan,
         "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if sel.any() else nan,
@@ -148,17 +155,37 @@ def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> 
         "bias_converged_fraction": np.isfinite(convergence).astype(float),
         "update_fraction": node.update_mask[:, sel].mean(axis=1) if sel.any() else nan,
         "mean_update_age_s": age,
-        "max_time_since_update_s": since.max(axis=1),
+        "max_time_since_update_s": max_time_since_update_s(node, sel),
     }
 
 
-def _time_since_update(node: NodeRun) -> np.ndarray:
-    """(R, K) time since the last applied update (or since the filter start), NaN before the start."""
-    t = node.t_s
-    last = np.where(node.update_mask, t[None, :], -np.inf)
-    last = np.maximum.accumulate(last, axis=1)
-    start = node.filter_start_s
-    return np.where(t[None, :] >= start, t[None, :] - np.maximum(last, start), np.nan)
+def max_time_since_update_s(node: NodeRun, sel: np.ndarray) -> np.ndarray:
+    """(R,) the longest time since the last applied update (or since the filter start, when later) over the ticks
+    ``sel``: max over k in sel of t_k - max(t_last update <= k, t_start), NaN where a tick of ``sel`` lies before
+    the start (or ``sel`` is empty).  One compiled pass (:func:`_max_time_since_update`) instead of four (R, K)
+    arrays: the same values (a max of the same differences)."""
+    out = np.full(node.update_mask.shape[0], np.nan)
+    if sel.any():
+        _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
+                               np.ascontiguousarray(sel), float(node.filter_start_s), out)
+    return out
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def _max_time_since_update(t, update, sel, start, out) -> None:
+    """``out[r]`` = :func:`max_time_since_update_s` of realization r (numpy's max: NaN if any value is NaN)."""
+    for r in range(update.shape[0]):
+        last, best, seen_nan = -np.inf, -np.inf, False
+        for k in range(t.size):
+            if update[r, k]:
+                last = max(last, t[k])
+            if sel[k]:
+                v = t[k] - max(last, start) if t[k] >= start else np.nan
+                if np.isnan(v):
+                    seen_nan = True
+                elif v > best:
+                    best = v
+        out[r] = np.nan if seen_nan else best
 
 
 def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, np.ndarray]:

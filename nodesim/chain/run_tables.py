@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from nodesim.chain import timeseries_rows
 from nodesim.chain.linkmetrics import hop_table
 from firmware_model import node_survey as survey
 from nodesim.chain.records import ChainRun
 from nodesim.chain.packets import decode_survey, survey_sigmas_rad
 from nodesim.scenario.output_section import OutputSection
-from nodesim.units import rad_to_deg, wrap_pi
+from nodesim.units import rad_to_deg
 
 TIMESERIES_COLUMNS = ("node", "t_s", "running", "update", "update_age_s", "true_yaw_deg", "true_inclination_deg",
                       "true_azimuth_deg", "yaw_est_deg", "yaw_error_deg", "yaw_sigma_deg", "bias_true_deg_s",
@@ -36,27 +37,10 @@ TIMESERIES_COLUMNS = ("node", "t_s", "running", "update", "update_age_s", "true_
 
 def node_timeseries(node, r: int = 0, step: int = 1) -> dict[str, np.ndarray]:
     """Realization ``r``'s per-tick records of one node (:class:`~nodesim.chain.records.NodeRun`), every
-    ``step``-th tick: its rows of the timeseries table."""
-    with np.errstate(invalid="ignore"):  # a diverged filter's negative variance: its sigma is NaN in the table
-        sigma_deg = rad_to_deg(np.sqrt(node.yaw_var_rad2[r]))
-    part = {
-        "node": np.full(node.t_s.size, node.node_id),
-        "t_s": node.t_s,
-        "running": node.running.astype(int),
-        "update": node.update_mask[r].astype(int),
-        "update_age_s": node.update_age_s[r],
-        "true_yaw_deg": rad_to_deg(node.true_yaw_rad),
-        "true_inclination_deg": rad_to_deg(node.true_inclination_rad),
-        "true_azimuth_deg": rad_to_deg(node.true_azimuth_rad),
-        "yaw_est_deg": rad_to_deg(node.yaw_est_rad[r]),
-        "yaw_error_deg": rad_to_deg(wrap_pi(node.yaw_est_rad[r] - node.true_yaw_rad)),
-        "yaw_sigma_deg": sigma_deg,
-        "bias_true_deg_s": rad_to_deg(node.true_bias_rad_s[r]),
-        "bias_est_deg_s": rad_to_deg(node.bias_est_rad_s[r]),
-        "inclination_deg": rad_to_deg(node.inclination_rad[r]),
-        "azimuth_deg": rad_to_deg(node.azimuth_rad[r]),
-    }
-    return {k: np.asarray(v)[::step] for k, v in part.items()}
+    ``step``-th tick: its rows of the timeseries table (:mod:`nodesim.chain.timeseries_rows`: degrees, the yaw
+    error wrapped into (-180, 180], the yaw sigma NaN where a diverged filter's variance is negative)."""
+    part = timeseries_rows.rows(node, r, step)
+    return {k: part[k] for k in TIMESERIES_COLUMNS}
 
 
 def empty_timeseries() -> dict[str, np.ndarray]:

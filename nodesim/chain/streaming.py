@@ -35,10 +35,17 @@ from nodesim.motion.timelines import ChainMotion
 from nodesim.scenario.schema import Scenario
 
 
-PARQUET_OPTIONS = {"compression": "zstd", "use_dictionary": False}
-"""How timeseries Parquet files are written (streamed or whole, :func:`nodesim.io.rundir.write_parquet`): zstd, no
-dictionary encoding (the float columns do not repeat: measured on a drilling hour's 5.4 M rows, dictionaries made
-the file 25 % larger and its writing twice as slow)."""
+INTEGER_COLUMNS = ("node", "running", "update")
+"""The timeseries columns that hold integers (one value per node's row group, or 0/1 flags)."""
+
+PARQUET_OPTIONS = {"compression": "zstd", "use_dictionary": list(INTEGER_COLUMNS),
+                   "use_byte_stream_split": [k for k in TIMESERIES_COLUMNS if k not in INTEGER_COLUMNS]}
+"""How timeseries Parquet files are written (streamed or whole, :func:`nodesim.io.rundir.write_parquet`): zstd;
+dictionary encoding for the integer columns only (a node's id and the 0/1 flags take a few bytes per row group;
+the float columns do not repeat: on a drilling hour's 5.4 M rows, dictionaries on every column made the file 25 %
+larger and its writing twice as slow); the float columns byte-stream split (the k-th bytes of all values side by
+side, which zstd packs better: on the drilling day's first hour (793 nodes, 5.4 M rows) the file is ~18 % smaller
+and its encoding ~15-25 % less CPU than plain zstd, same values and dtypes)."""
 
 
 class TimeseriesFile:

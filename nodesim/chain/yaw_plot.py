@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
+from numba import njit
 
 LEGEND_MAX_NODES = 12
 TRACE_POINTS = 4000  # ticks a node's trace keeps before min-max decimation
@@ -56,6 +57,21 @@ def node_trace(rows: Mapping[str, np.ndarray], max_points: int = TRACE_POINTS) -
         keep[np.minimum(hi, K - 1)] = True
         t, err, est, true = t[keep], err[keep], est[keep], true[keep]
     return NodeTrace(int(np.asarray(rows["node"])[0]), t, err, est, true)
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def band_add(t_s, running, yaw_error_deg, duration_s, lo, hi) -> None:
+    """The band (``lo``, ``hi``: per time bin i = clip(floor(t / duration_s * B), 0, B - 1) of B, the smallest and
+    largest yaw error so far) with one node's running ticks of finite yaw error; one compiled pass (it runs on a
+    streamed run's output thread, beside phase 2: no GIL held)."""
+    B = lo.size
+    for k in range(t_s.size):
+        e = yaw_error_deg[k]
+        if running[k] == 0 or not np.isfinite(e):
+            continue
+        i = min(max(np.int64(t_s[k] / duration_s * B), 0), B - 1)
+        lo[i] = min(lo[i], e)
+        hi[i] = max(hi[i], e)
 
 
 def shown_nodes(node_ids: Sequence[int]) -> list[int]:
@@ -101,17 +117,9 @@ class YawPlotData:
             self.traces.append(node_trace(rows))
         if self.band is None:
             return
-        t, e = np.asarray(rows["t_s"], dtype=float), np.asarray(rows["yaw_error_deg"], dtype=float)
-        ok = np.asarray(rows["running"]).astype(bool) & np.isfinite(e)
-        if not ok.any():
-            return
-        t, e = t[ok], e[ok]  # in time order: each bin's points are one run of them
-        idx = np.clip((t / self.duration_s * BAND_BINS).astype(np.int64), 0, BAND_BINS - 1)
-        starts = np.flatnonzero(np.concatenate([[True], idx[1:] != idx[:-1]]))
-        bins = idx[starts]
         lo, hi = self.band
-        lo[bins] = np.minimum(lo[bins], np.minimum.reduceat(e, starts))
-        hi[bins] = np.maximum(hi[bins], np.maximum.reduceat(e, starts))
+        band_add(np.ascontiguousarray(rows["t_s"], dtype=float), np.ascontiguousarray(rows["running"], dtype=np.int64),
+                 np.ascontiguousarray(rows["yaw_error_deg"], dtype=float), self.duration_s, lo, hi)
 
     def band_deg(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """(bin centres [s], smallest, largest yaw error [deg]) of the bins any node had a point in, or None."""

@@ -322,8 +322,10 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     starts = np.flatnonzero(codes == tp.START)
     _attach_records(net, n, out, codes)
     static = codes == tp.STATIC
+    at_tick = static | (codes == tp.START)  # the ticks that read the encoder at the tick itself: read once
+    enc_yaw = net.encoder.read_many(t[at_tick])[0] if at_tick.any() else None
     if static.any():
-        node.yaw[:, static] = net.encoder.read_many(t[static])[0]
+        node.yaw[:, static] = enc_yaw[static[at_tick]]
     if not starts.size:
         return
     n_static = int(starts[0])
@@ -331,7 +333,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
         six_state_node.run(net, n, out, k_end, n_static, codes, _encoder_reads(net, n, t, codes, out))
         return
     if net.scenario.filter.implementation == "fixed":
-        _run_node_firmware(net, n, out, k_end, n_static, codes, bits)
+        _run_node_firmware(net, n, out, k_end, n_static, codes, bits, at_tick, enc_yaw)
         return
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
@@ -373,9 +375,11 @@ def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
     return tuple(frames)
 
 
-def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, bits) -> None:
+def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, bits, at_tick: np.ndarray,
+                       enc_yaw: np.ndarray) -> None:
     """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`); its filter
-    starts at tick ``n_static``."""
+    starts at tick ``n_static``; ``enc_yaw`` the encoder's yaw read at the ticks ``at_tick`` (the static window and
+    the start: :func:`_run_node` reads it once for the float records and the firmware)."""
     node, sig = net.nodes[n], net.nodes[n].sig
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
@@ -383,8 +387,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
     # node's requests, the reply read at the request's arrival; no other tick reads it
     yaw_enc = np.zeros((R, K), np.int64)
-    at_tick = (codes == tp.STATIC) | (codes == tp.START)
-    yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(net.encoder.read_many(t[at_tick])[0])
+    yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(enc_yaw)
     enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     ask, t_read, y, rate = _encoder_reads(net, n, t, codes, out)
     if ask.size:

@@ -146,6 +146,29 @@ def test_a_long_trace_keeps_each_bins_smallest_and_largest_yaw_error():
     assert np.array_equal(node_trace(short).yaw_error_deg, err[:100])  # short nodes: every tick
 
 
+def test_the_band_keeps_each_time_bins_smallest_and_largest_yaw_error_of_every_node():
+    """YawPlotData's band (one compiled pass per node) against its definition: per bin of the run's time, min and
+    max over the nodes' running ticks of finite yaw error."""
+    from nodesim.chain.yaw_plot import BAND_BINS, YawPlotData, shown_nodes
+
+    rng = np.random.default_rng(5)
+    ids, duration = list(range(1, 41)), 100.0
+    data = YawPlotData(ids, duration)
+    assert data.band is not None and len(shown_nodes(ids)) < len(ids)
+    lo, hi = np.full(BAND_BINS, np.inf), np.full(BAND_BINS, -np.inf)
+    for i in ids:
+        t = np.sort(rng.uniform(-1.0, duration + 1.0, size=3000))  # ticks outside [0, duration] go to the end bins
+        err, running = rng.normal(size=t.size), rng.random(t.size) > 0.2
+        err[rng.choice(t.size, 50)] = np.nan
+        data.add({"node": np.full(t.size, i), "t_s": t, "running": running.astype(int), "yaw_error_deg": err,
+                  "bias_est_deg_s": err, "bias_true_deg_s": err})
+        ok = running & np.isfinite(err)
+        b = np.clip((t[ok] / duration * BAND_BINS).astype(np.int64), 0, BAND_BINS - 1)
+        np.minimum.at(lo, b, err[ok])
+        np.maximum.at(hi, b, err[ok])
+    assert np.array_equal(data.band[0], lo) and np.array_equal(data.band[1], hi)
+
+
 def test_a_negative_variance_gives_a_nan_sigma_without_a_warning_per_node(recwarn):
     """A diverged filter (the 6-state chain in a long rotating string, docs/deviated_wells.md) can report a negative
     yaw variance: its row's sigma is NaN, and the table does not print a numpy warning for every node."""
