@@ -298,8 +298,10 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
         g_sel = a_sel = np.ones((R, K), dtype=bool)
         gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
         threads.map_chunks(lambda r0, r1: _gauss_markov_z(g_states.copy(), *gm, gm_z, r0, r1), R)
-    true_bias = (imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)[None, :]
-                 + gm_z / sg)
+    # turn-on + residual + Gauss-Markov [rad/s], in gm_z's memory (x + y == y + x in floating point: the same bits
+    # as the sum in that order, without two more (R, K) arrays)
+    true_bias = np.divide(gm_z, sg, out=gm_z)
+    true_bias += imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)
 
     def gyro_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
         after = (j0 + idx >= j_start)[:, None]
