@@ -419,6 +419,8 @@ def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: i
     """Overwrite the selected ticks (sel (R, K)) of ``out`` (R, K, 3) with per-sample sums; clipped readings (R,)."""
     R = sel.shape[0]
     clipped = np.zeros(R, dtype=np.int64)
+    if not sel.any():  # every tick drawn directly (tick_sum's common case): no pass over (R, K), no loop over R
+        return clipped
     need = 3 * (sel * n[None, :]).sum(axis=1)  # normals per realization
     r0 = 0
     while r0 < R:
