@@ -125,8 +125,9 @@ class ChainNode:
         self.yaw = np.full((R, K), np.nan)
         self.var = np.full((R, K), np.nan)
         self.bias = np.full((R, K), np.nan)
-        self.applied = np.zeros((R, K), dtype=bool)
-        self.age = np.full((R, K), np.nan)
+        # which references it took and their ages (R, K): the SimPy engine's made when its process starts
+        # (:meth:`process`), the compiled engine's are views of phase 1's records (no (R, K) array made and dropped)
+        self.applied = self.age = None
         self.ref_yaw = np.full((R, K), np.nan)  # the reference each update used (replay logs record it)
         self.ref_var = np.full((R, K), np.nan)
         self.running = np.zeros(K, dtype=bool)  # filter running and not holding
@@ -143,6 +144,8 @@ class ChainNode:
 
     def process(self):
         env, sig, tl = self.net.env, self.sig, self.timeline
+        self.applied = np.zeros(sig.gyro_rad_s.shape, dtype=bool)
+        self.age = np.full(sig.gyro_rad_s.shape, np.nan)
         for k, t in enumerate(self.t_s):
             if t >= self.dead_at_s:
                 return

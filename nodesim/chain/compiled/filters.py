@@ -25,7 +25,8 @@ from numba import njit
 from firmware_model import fixed_kernel as fxk
 from firmware_model import node_firmware as nf
 from firmware_model import six_state_firmware as n6
-from nodesim.chain.compiled import float_kernel as flk
+from nodesim.chain.compiled import float_kernel as flk  # compiled into run_node; numba's cache of run_node is keyed
+# on this file only: a change in float_kernel (2026-12-03: mod_two_pi in update) needs an edit here to recompile
 from nodesim.chain.compiled import tick_plan as tp
 
 

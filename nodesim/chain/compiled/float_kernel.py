@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from firmware_model.yaw_filter import FloatYawFilter
+from nodesim.chain.compiled.angles import mod_two_pi
 
 
 def kernel_params(kf: FloatYawFilter) -> np.ndarray:
@@ -40,7 +41,7 @@ def predict(state, rate_rad_s, params, counts) -> None:
 
 @njit(cache=True, _nrt=False)
 def update(state, ref_rad, var_rad2, params, counts) -> None:
-    innovation = np.remainder(state[0] - ref_rad + math.pi, 2.0 * math.pi) - math.pi
+    innovation = mod_two_pi(state[0] - ref_rad + math.pi) - math.pi  # np.remainder's bits
     yy, yb, bb = state[2], state[3], state[4]
     inv_s = 1.0 / (yy + var_rad2)
     k_y, k_b = yy * inv_s, yb * inv_s

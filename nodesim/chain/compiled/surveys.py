@@ -27,18 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True, inline="always")
-def _mod_two_pi(x: float) -> float:
-    """``np.remainder(x, 2 pi)`` bit for bit, without the remainder where it is the identity (0 < x < 2 pi, the
-    common case here) or one addition (-2 pi < x < 0): numpy's floor-mod (fmod, then + 2 pi for a negative
-    remainder; a zero result is +0.0)."""
-    two_pi = 2.0 * math.pi
-    if 0.0 < x < two_pi:
-        return x
-    if -two_pi < x < 0.0:
-        return x + two_pi
-    return np.remainder(x, two_pi)
+from nodesim.chain.compiled.angles import mod_two_pi
 
 
 @njit(cache=True, inline="always")
@@ -89,7 +78,7 @@ def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, align_lo: int, alig
             psi = yaw_rad[r, k]
             if k > 0:
                 prev = yaw_rad[r, k - 1]
-                psi = prev + 0.5 * (_mod_two_pi(psi - prev + math.pi) - math.pi)
+                psi = prev + 0.5 * (mod_two_pi(psi - prev + math.pi) - math.pi)
             h = np.hypot(fx, fy)
             cos_a, sin_a = _unit_azimuth(fx, fy, h, psi)
             s_i += np.arctan2(h, fz)
@@ -101,4 +90,4 @@ def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, align_lo: int, alig
                 w_i, w_c, w_s = s_i - sums[0, k - points], s_c - sums[1, k - points], s_s - sums[2, k - points]
             n = min(k + 1, points)
             inc_out[r, k] = w_i / n
-            azi_out[r, k] = _mod_two_pi(np.arctan2(w_s / n, w_c / n))
+            azi_out[r, k] = mod_two_pi(np.arctan2(w_s / n, w_c / n))

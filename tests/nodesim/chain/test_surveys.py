@@ -7,7 +7,8 @@ from hypothesis import strategies as st
 from numba import njit
 
 from firmware_model.survey_resolution import circular_moving_average, resolve_survey, trailing_moving_average
-from nodesim.chain.compiled.surveys import _mod_two_pi, averaged_surveys
+from nodesim.chain.compiled.angles import mod_two_pi
+from nodesim.chain.compiled.surveys import averaged_surveys
 
 
 def mid_window_yaw(yaw):
@@ -94,7 +95,7 @@ def test_the_alignment_offset_removes_a_constant_transverse_offset(points):
     assert before > 5e-3 and after < 2e-3 * before  # the offset's 0.6 deg is gone to the sinc of the arc
 
 
-_MOD_TWO_PI = njit(lambda v: _mod_two_pi(v))
+_MOD_TWO_PI = njit(lambda v: mod_two_pi(v))
 
 
 @settings(max_examples=500, deadline=None)

@@ -1,4 +1,4 @@
-"""The vectorised SeedSequence (nodesim.rng.streams.seed_states) against numpy's own, bit for bit."""
+"""The compiled SeedSequence hash (nodesim.rng.streams.seed_states) against numpy's own, bit for bit."""
 
 import numpy as np
 import pytest
