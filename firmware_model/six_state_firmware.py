@@ -10,7 +10,8 @@ Lane state (``STATE_SIZE`` int64 words):
                              ``fk.I_YAW`` the twist psi_t as a 32-bit binary angle, ``fk.I_PYY`` the twist's
                              variance h P h^T in P_yy's format (deg^2), ``fk.I_BIAS`` the z bias
     [O6, O6 + k6.STATE_SIZE) the 6-state filter's lane (binary-angle roll, pitch, yaw; Q16.16 biases; P)
-    then the x, y gyro sums and the x, y, z accelerometer sums of the static window, the tick's x, y, z rates.
+    then the x, y gyro sums and the x, y, z accelerometer sums of the static window, the tick's x, y, z rates,
+    the count of levelled ticks.
 A 6-state node thus shows the chain what a 2-state node shows: the frames, the survey, the reference it applied and
 the records read the same words, and the reference crossing the chain is the 2-state firmware's yaw word and P_yy
 word.  The receiving node converts them into its 6-state formats: at 32 bits (the only word length the 6-state
@@ -25,10 +26,13 @@ Per tick (the 2-state firmware's phases):
   - start: biases = the window's mean rate per axis (0 without samples, as the 2-state firmware's z bias); roll and
     pitch by levelling the window's accelerometer sums f (the start tick's own where the window is empty), with
     the CORDIC's vectoring (:func:`firmware_model.cordic.vectoring_lanes`, gain-compensated magnitude):
-        phi_0 = atan2(f_y, f_z),   theta_0 = atan2(-f_x, |(f_y, f_z)|)
+        phi_0 = atan2(f_y, f_z),   theta_0 = atan2(-f_x, |(f_y, f_z)|)    (:func:`six_state_kernel.tilt_raw`)
     (thesis digest 2.7 step 4, eqs 1.1-1.3; the float start of nodesim.chain.six_state); psi_0 = psi_enc - c(phi_0,
     theta_0) in binary angles, so the twist starts at the encoder's angle; P = P0 of the 6-state build;
-  - run: :func:`firmware_model.six_state_kernel.predict_raw` with the three rates, then the reference as the 2-state
+  - run: :func:`firmware_model.six_state_kernel.predict_raw` with the three rates, then the levelling
+    (:func:`firmware_model.six_state_kernel.level_raw` with the three rate words and the tick's accelerometer sums:
+    at a static tick, |w - b_0| below ``filter.levelling_rate_deg_s``, the accelerometer's roll and pitch update
+    the filter; b_0 the start's biases; ``filter.levelling = "off"``: a no-op), then the reference as the 2-state
     firmware forms it (eq 3.29 in binary-angle arithmetic with the bias-corrected z rate, R of digest 2.6;
     :func:`firmware_model.node_firmware.advance`, ``omega``, ``reference_variance``, ``transfer_us_sat``), then
     :func:`twist_update_raw`;
@@ -46,7 +50,8 @@ in the ``transition`` format (dimensionless, |h| < 32; beyond it saturates, coun
     S = h P h^T + R (p_aa);  K = Ph / S;  dx = K z (angles in turns, biases with z in deg);
     P -= K (Ph)^T (upper triangle, mirrored, P_ii >= 1 LSB);  closed-loop reset: Theta -= dx[:3], b += dx[3:].
 (The float filter updates P in Joseph form; the fixed kernel's simple form is used here as in its own update.)
-The C twin (firmware_model/c/six_state_filter.c) covers the filter's predict and update, not this node layer.
+The C twin (firmware_model/c/six_state_filter.c) covers the filter's predict, update, tilt and levelling
+(nf6_tilt, nf6_level), not this node layer.
 """
 
 from __future__ import annotations
@@ -65,7 +70,8 @@ O6 = nf.STATE_SIZE  # the 6-state filter's lane
 S_GSUM = O6 + k6.STATE_SIZE  # x, y gyro sums of the static window
 S_ASUM = S_GSUM + 2  # x, y, z accelerometer sums of the static window
 S_RATES = S_ASUM + 3  # the tick's x, y, z rates (the rate format)
-STATE_SIZE = S_RATES + 3
+S_LEVELLED = S_RATES + 3  # the count of levelled ticks
+STATE_SIZE = S_LEVELLED + 1
 
 # inputs: the 2-state firmware's, then the tick's x, y gyro sums and x, y, z accelerometer sums
 INPUTS = nf.INPUTS + ("gyro_x_sum", "gyro_y_sum", "accel_x_sum", "accel_y_sum", "accel_z_sum")
@@ -205,21 +211,15 @@ def _start(state, inp, p6, p0, params, fparams, counts, work) -> None:
     ax, ay, az = state[S_ASUM], state[S_ASUM + 1], state[S_ASUM + 2]
     if n == 0:  # no static window: the start tick's own accelerometer sums
         ax, ay, az = inp[IN_AX], inp[IN_AX + 1], inp[IN_AX + 2]
-    it = p6[k6.P_ITER]
-    work[k6.WK_CX], work[k6.WK_CY] = az, ay
-    cordic.vectoring_lanes(work[k6.WK_CX:k6.WK_CX + 1], work[k6.WK_CY:k6.WK_CY + 1], it, work[k6.WK_CA:k6.WK_CA + 1],
-                           work[k6.WK_CS:k6.WK_CS + 1])
-    st6[k6.I_ATT] = work[k6.WK_CA]
-    work[k6.WK_CY] = -ax  # work[WK_CX] holds |(f_y, f_z)|
-    cordic.vectoring_lanes(work[k6.WK_CX:k6.WK_CX + 1], work[k6.WK_CY:k6.WK_CY + 1], it, work[k6.WK_CA:k6.WK_CA + 1],
-                           work[k6.WK_CS:k6.WK_CS + 1])
-    st6[k6.I_ATT + 1] = work[k6.WK_CA]
+    st6[k6.I_ATT], st6[k6.I_ATT + 1], _, _ = k6.tilt_raw(ax, ay, az, p6[k6.P_ITER], work)
     st6[k6.I_ATT + 2] = 0
     c, _, _ = twist_offset(st6, p6, counts, work)
     st6[k6.I_ATT + 2] = _wrap(inp[nf.IN_YAW0] - c, p6[k6.W_ANG])
     for i in range(36):
         st6[k6.I_P + i] = p0[k6.I_P + i]
     st6[k6.I_SING] = 0
+    for i in range(3):  # the start bias b_0 (the levelling's static test)
+        st6[k6.I_B0 + i] = st6[k6.I_BIAS + i]
 
 
 @njit(cache=True, _nrt=False)
@@ -260,6 +260,8 @@ def node_tick(state, p6, p0, params, fparams, counts, inp, out, work) -> None:
         _start(state, inp, p6, p0, params, fparams, counts, work)
     elif phase == nf.RUN:
         k6.predict_raw(st6, state[S_RATES:S_RATES + 3], p6, c6, work)
+        # the levelling at a static tick (filter.levelling; off in the build: returns at once)
+        state[S_LEVELLED] += k6.level_raw(st6, state[S_RATES:S_RATES + 3], inp[IN_AX:IN_AX + 3], n, p6, c6, work)
         state[fk.I_BIAS] = st6[k6.I_BIAS + 2]  # nf.omega's bias: the z bias
         kind = inp[nf.IN_REF]
         if kind == nf.ENCODER_REF or kind == nf.FORWARDED_REF:

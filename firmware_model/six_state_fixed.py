@@ -41,6 +41,20 @@ Update (six_state_kernel.update_raw; C nf6_update), eqs 3.11-3.14, as sequential
     z_a = wrap(Theta_INS,a - Theta_ref,a) (the binary angle's int32 difference: wrapped for free), for a = yaw only
     or roll, pitch, yaw:  r = wrap(z_a - dx_a);  S = P_aa + R_a;  K = P e_a / S;  dx += K r;  P -= K (P e_a)^T
     then the closed-loop reset (digest 2.7): Theta_INS -= dx[:3] (wrapping), b_hat += dx[3:], dx = 0, P kept.
+Levelling (six_state_kernel.level_raw; C nf6_level; ``filter.levelling = "static"``, the float filter's "Levelling"
+    in :mod:`firmware_model.six_state_filter`), after the predict of a tick with the tick's rate words w and
+    accelerometer count sums f over n samples:
+    static:  sum_i clamp(w_i - b_0,i, +/-2^30)^2 < w_thr^2, exact int64 arithmetic on the rate raws (b_0 the start
+             bias, held in the lane; w_thr = ``levelling_rate_rad_s`` in the rate format; the clamp is above any
+             allowed threshold, so the test is exact and no square overflows)
+    tilt:    phi_m = atan2(f_y, f_z), theta_m = atan2(-f_x, |(f_y, f_z)|) by two CORDIC vectorings (tilt_raw, the
+             node's levelled start uses the same; thesis eqs 1.1-1.3 as the survey resolves its inclination)
+    R:       sigma_F = c_sigma n (c_sigma = sigma_f S_a 180/pi, deg counts: the noise of one count sum's mean,
+             S_a = ``accel_counts_per_m_s2``), R_theta = (sigma_F / |f|)^2, R_phi = (sigma_F / |(f_y, f_z)|)^2:
+             the quotient rounded into ``formats.level_sigma`` (deg, site "level sigma"), squared into p_aa
+             (site "level R"); the float's sigma_f^2 / |f|^2 and sigma_f^2 / (f_y^2 + f_z^2)
+    update:  update_raw with ROLL_PITCH (H = the roll and pitch rows of [I3 0], eqs 3.27-3.31), or PITCH_ONLY where
+             cos(theta_m) < sin(margin) (near horizontal the roll is undefined; cordic.sin_cos, the predict's test).
 The float crosses in only at the boundaries (six_state_kernel.predict / update): gyro rates (rad/s -> Q16.16 deg/s),
 references (rad -> binary angle, wrapped) and their variances (rad^2 -> p_aa).
 
@@ -50,6 +64,9 @@ The configuration checks (:meth:`SixStateFixedConfig.check`), each a FirmwareErr
     - Q >= 0: the float configuration's own checks (sigma >= 0, tau > 0, A, B > 0), each quantised Q_d term >= 0;
     - ``formats.transition`` must hold 2 / sin(margin) (E and Phi11 reach 1/sin(margin) at the held pitch; one bit of
       headroom), ``formats.noise_sqrt`` 2 A max(sigma_v) sqrt(dt) / sin(margin);
+    - with levelling: ``accel_counts_per_m_s2`` finite > 0, ``levelling_rate_rad_s`` 1 .. 2^30 LSB of
+      ``formats.rate``, and ``levelling_force_sigma_m_s2`` such that the division sigma_F / |f| into
+      ``formats.level_sigma`` shifts by -LEVEL_MAX_SHIFT .. 0 (|f| << 20 stays in int64 for count sums < 2^42);
     - covariance formats too narrow for the 6 x 6 covariance: with P1 = the covariance after one tick at rest from
       P0 (Phi11 = I, Phi12 = dt I: P1_aa = P0_aa + dt^2 P0_bb + Q_aa, P1_bb = f^2 P0_bb + Q_bb), every diagonal of
       P0 and P1 must be <= half its block format's maximum, the Cauchy-Schwarz bound sqrt(P1_ii P1_jj) of every
@@ -59,7 +76,8 @@ The configuration checks (:meth:`SixStateFixedConfig.check`), each a FirmwareErr
 The engines' API: ``cfg = SixStateFixedConfig.from_filter_config(six_state_config(scenario))``;
 ``params = cfg.params()``; ``state = cfg.initial_state(attitude_rad, bias_rad_s)``; ``work = new_work()``;
 ``counts = new_counts()``; per tick in njit code ``six_state_kernel.predict(state, rates_rad_s, params, counts,
-work)`` (or ``predict_raw`` with Q16.16 rates) and, with a reference, ``six_state_kernel.update(state, YAW_ONLY,
+work)`` (or ``predict_raw`` with Q16.16 rates), ``six_state_kernel.level_raw(state, rate_raw, accel_sums, n, params,
+counts, work)`` (returns 1 where it levelled) and, with a reference, ``six_state_kernel.update(state, YAW_ONLY,
 ref_rad, var_rad2, params, counts, work, raw)`` (or ``update_raw``); ``counts_dict(counts)`` names the overflows.
 :class:`SixStateFixedFilter` is the batched class with the float filter's interface.
 """
@@ -85,6 +103,7 @@ from firmware_model.yaw_filter import batch_arg, check_finite, check_realization
 ANGLE_FORMAT = QFormat(32, 32)  # the CORDIC's binary angle
 UNIT_FORMAT = QFormat(32, cordic.GAIN_FRAC)  # the CORDIC's sin/cos words, Q2.30
 MIN_P0_LSB = 2**8
+LEVEL_MAX_SHIFT = 20  # level_raw's sigma_F / |f|: |f| << (-shift) stays in int64 for count sums |f| < 2^42
 
 
 @dataclass(frozen=True)
@@ -107,6 +126,7 @@ class SixStateFixedFormats:
     gain_angle: QFormat = QFormat(32, 30)  # dimensionless
     gain_bias: QFormat = QFormat(32, 28)  # 1/s
     innovation_deg: QFormat = QFormat(32, 20)  # deg
+    level_sigma: QFormat = QFormat(32, 20)  # deg: the levelling's angle sigma sigma_F / |f| (+/- 2048)
 
 
 def _series_table(j: int, fmt: QFormat) -> list[int]:
@@ -125,6 +145,7 @@ class SixStateFixedConfig:
     filter: SixStateFilterConfig
     formats: SixStateFixedFormats = SixStateFixedFormats()
     cordic_iterations: int = cordic.MAX_ITERATIONS
+    accel_counts_per_m_s2: float = 0.0  # the accelerometer's count weight S_a (levelling only: its sums' noise)
 
     def __post_init__(self) -> None:
         self.check()
@@ -157,6 +178,30 @@ class SixStateFixedConfig:
             raise FirmwareError(f"tuning_a = {t.tuning_a}: A sigma_v sqrt(dt) / sin(margin) = {max(sv) * inv_margin:.4g} "
                                 f"deg needs 2x headroom in formats.noise_sqrt = {f.noise_sqrt}")
         self._check_covariance()
+        self._check_levelling()
+
+    def _level_sigma_deg_counts(self) -> float:
+        """c_sigma = sigma_f S_a 180/pi: the noise of one sample-mean count (deg counts; level_raw's sigma_F / n)."""
+        return self.filter.levelling_force_sigma_m_s2 * self.accel_counts_per_m_s2 * RAD_TO_DEG
+
+    def _check_levelling(self) -> None:
+        f, t = self.formats, self.filter
+        if not t.levelling:
+            return
+        s_a = self.accel_counts_per_m_s2
+        if not (math.isfinite(s_a) and s_a > 0):
+            raise FirmwareError(f"accel_counts_per_m_s2 = {s_a} with levelling: allowed finite values > 0 (the "
+                                "accelerometer's counts per m/s^2)")
+        thr = t.levelling_rate_rad_s * RAD_TO_DEG * 2**f.rate.frac_bits
+        if not 1.0 <= thr < k6.LEVEL_DIFF_LIMIT:
+            raise FirmwareError(f"levelling_rate_rad_s = {t.levelling_rate_rad_s}: {thr:.4g} LSB of formats.rate = "
+                                f"{f.rate}; allowed 1 .. 2^30 LSB")
+        c = const(self._level_sigma_deg_counts(), site="levelling sigma")
+        shift = f.level_sigma.frac_bits - c.fmt.frac_bits  # level_raw's division sigma_F / |f|
+        if not -LEVEL_MAX_SHIFT <= shift <= 0:
+            raise FirmwareError(f"levelling_force_sigma_m_s2 = {t.levelling_force_sigma_m_s2}: its count noise "
+                                f"{self._level_sigma_deg_counts():.4g} deg counts needs a division shift {shift} into "
+                                f"formats.level_sigma = {f.level_sigma}; allowed -{LEVEL_MAX_SHIFT} .. 0")
 
     def _sigma_v_deg(self) -> list[float]:
         t = self.filter
@@ -207,7 +252,8 @@ class SixStateFixedConfig:
             p[i], p[i + 1] = q.word_bits, q.frac_bits
         dt = t.dt_s
         consts = {"dt_rad": const(dt / RAD_TO_DEG, site="dt pi/180"), "dt": const(dt, site="dt"),
-                  "c_360": fp.Fx(np.int64(360), QFormat(32, 0))}
+                  "c_360": fp.Fx(np.int64(360), QFormat(32, 0)),
+                  "level_sigma": const(self._level_sigma_deg_counts() if t.levelling else 0.0, site="levelling sigma")}
         for axis, tau, sv, qb in zip("xyz", t.bias_tau_s, self._sigma_v_deg(), self._q_bb_deg2()):
             consts[f"f_{axis}"] = const(1.0 - dt / tau, site="1 - dt/tau")
             consts[f"sv_{axis}"] = const(sv, site="A sigma_v sqrt(dt)")
@@ -222,7 +268,8 @@ class SixStateFixedConfig:
                 "sin_margin": round(math.sin(m) * 2**f.unit.frac_bits),
                 "cos_margin": round(math.cos(m) * 2**f.unit.frac_bits),
                 "one_unit": 1 << f.unit.frac_bits, "one_transition": 1 << f.transition.frac_bits,
-                "dt_transition": round(dt * 2**f.transition.frac_bits)}
+                "dt_transition": round(dt * 2**f.transition.frac_bits), "level": int(t.levelling),
+                "level_rate": round(t.levelling_rate_rad_s * RAD_TO_DEG * 2**f.rate.frac_bits)}
         for name, i in k6._INT.items():
             p[i] = ints[name]
         return p
@@ -238,6 +285,7 @@ class SixStateFixedConfig:
         st = np.zeros(k6.STATE_SIZE, dtype=np.int64)
         st[k6.I_ATT:k6.I_ATT + 3] = fp.from_float(att / TURN_RAD, f.angle, overflow=fp.Overflow.WRAP).raw
         st[k6.I_BIAS:k6.I_BIAS + 3] = fp.from_float(bias * RAD_TO_DEG, f.bias, counter=counter, site="initial bias").raw
+        st[k6.I_B0:k6.I_B0 + 3] = st[k6.I_BIAS:k6.I_BIAS + 3]  # the start bias b_0 (the levelling's static test)
         p0 = np.diag(t.p0) * RAD_TO_DEG**2
         for i in range(6):
             fmt = f.p_aa if i < 3 else f.p_bb
@@ -322,6 +370,16 @@ class SixStateFixedFilter:
         rates = np.ascontiguousarray(np.broadcast_to(check_finite("gyro rates", measured_rates_rad_s),
                                                      (self.realizations, 3)), dtype=float)
         k6.predict_lanes(self.states, rates, self.params, self._counts, self._work)
+
+    def level(self, measured_rates_rad_s, accel_count_sums, n_samples: int) -> int:
+        """The levelling update (``filter.levelling``; :func:`firmware_model.six_state_kernel.level_raw`) of every
+        lane at a static tick: the tick's gyro rates (R, 3) or (3,) rad/s and accelerometer count sums (R, 3) or
+        (3,) over ``n_samples`` samples; returns how many lanes were static and levelled."""
+        R = self.realizations
+        rates = np.ascontiguousarray(np.broadcast_to(check_finite("gyro rates", measured_rates_rad_s), (R, 3)),
+                                     dtype=float)
+        sums = np.ascontiguousarray(np.broadcast_to(np.asarray(accel_count_sums, dtype=np.int64), (R, 3)))
+        return int(k6.level_lanes(self.states, rates, sums, int(n_samples), self.params, self._counts, self._work))
 
     def update(self, reference_yaw_rad, reference_variance_rad2, mask=None, reference_roll_pitch_rad=None,
                roll_pitch_variance_rad2=None) -> None:

@@ -1,7 +1,7 @@
 """The 6-state fixed-point filter (:mod:`firmware_model.six_state_fixed`) as numba scalar kernels, one lane at a time.
 
 ``state`` is int64[STATE_SIZE] (binary-angle roll, pitch, yaw; biases in the bias format; P row-major 6 x 6 in its
-block formats; the count of singular ticks), ``params`` the int64 vector of
+block formats; the count of singular ticks; the start bias b_0 of the levelling), ``params`` the int64 vector of
 :meth:`firmware_model.six_state_fixed.SixStateFixedConfig.params`, ``counts`` int64[len(SITES)] overflow counters,
 ``work`` int64[WORK_SIZE] scratch (the kernels allocate nothing: ``_nrt=False`` like
 :mod:`firmware_model.fixed_kernel`, whose primitives ``_add``/``_sub``/``_mul``/``_div``/``_sat``/``_wrap`` every
@@ -33,35 +33,46 @@ SITES: tuple[str, ...] = (
     "E", "Phi11", "Phi12", "G_C", "noise sqrt", "Q_d", "Phi P", "P predict",
     # update
     "reference variance", "S", "1 / S", "K", "innovation deg", "K z", "P update", "bias update",
+    # levelling (level_raw)
+    "level sigma", "level R",
 )
 (S_GYRO, S_RATE_BIAS, S_RHO, S_RHO2, S_SERIES, S_EXP, S_JR, S_EXPH, S_DCM, S_INVC, S_E, S_PHI11, S_PHI12, S_GC,
- S_GS, S_QD, S_PHIP, S_PPRED, S_REF_VAR, S_S, S_INV, S_K, S_INNOV, S_KZ, S_PUPD, S_BIAS_UPD) = range(len(SITES))
+ S_GS, S_QD, S_PHIP, S_PPRED, S_REF_VAR, S_S, S_INV, S_K, S_INNOV, S_KZ, S_PUPD, S_BIAS_UPD, S_LSIG,
+ S_LR) = range(len(SITES))
 
-# the lane state
-I_ATT, I_BIAS, I_P, I_SING = 0, 3, 6, 42
-STATE_SIZE = 43
-# the work array (3 x 3 matrices row-major, then the 6 x 6 product, CORDIC lanes, the update's row, gains and dx)
+# the lane state: attitude, biases, P, singular ticks, the start bias b_0 (x, y, z; the levelling's static test)
+I_ATT, I_BIAS, I_P, I_SING, I_B0 = 0, 3, 6, 42, 43
+STATE_SIZE = 46
+# the work array (3 x 3 matrices row-major, then the 6 x 6 product, CORDIC lanes, the update's row, gains and dx,
+# the levelling's references and variances)
 WK_EXP, WK_JR, WK_EXPH, WK_EINV, WK_E, WK_M, WK_PHI11, WK_PHI12, WK_GC, WK_GS = range(0, 90, 9)
-WK_T, WK_CX, WK_CY, WK_CA, WK_CS, WK_ROW, WK_K, WK_DX = 90, 126, 128, 130, 132, 134, 140, 146
-WORK_SIZE = 152
+WK_T, WK_CX, WK_CY, WK_CA, WK_CS, WK_ROW, WK_K, WK_DX, WK_LREF, WK_LVAR = 90, 126, 128, 130, 132, 134, 140, 146, 152, 155
+WK_LRATE = 158  # level_lanes: the tick's rate raws
+WORK_SIZE = 161
 
 # params: (word, frac) of each format, (raw, frac, word) of each constant, then the series tables, then integers
 FORMAT_FIELDS = ("angle", "rate", "bias", "rho", "rho2", "series", "unit", "transition", "noise_sqrt", "p_aa",
-                 "p_ab", "p_bb", "inv_s", "gain_angle", "gain_bias", "innovation_deg")
-CONSTANTS = ("dt_rad", "dt", "f_x", "f_y", "f_z", "q_bx", "q_by", "q_bz", "sv_x", "sv_y", "sv_z", "c_360")
+                 "p_ab", "p_bb", "inv_s", "gain_angle", "gain_bias", "innovation_deg", "level_sigma")
+CONSTANTS = ("dt_rad", "dt", "f_x", "f_y", "f_z", "q_bx", "q_by", "q_bz", "sv_x", "sv_y", "sv_z", "c_360",
+             "level_sigma")
 SERIES_TERMS = 13
-INTEGERS = ("cordic_iterations", "decouple", "sin_margin", "cos_margin", "one_unit", "one_transition", "dt_transition")
+INTEGERS = ("cordic_iterations", "decouple", "sin_margin", "cos_margin", "one_unit", "one_transition", "dt_transition",
+            "level", "level_rate")
 _FMT = {name: 2 * i for i, name in enumerate(FORMAT_FIELDS)}
 _CONST = {name: 2 * len(FORMAT_FIELDS) + 3 * j for j, name in enumerate(CONSTANTS)}
 T_SERIES = 2 * len(FORMAT_FIELDS) + 3 * len(CONSTANTS)  # 3 tables of SERIES_TERMS raws (series format)
 _INT = {name: T_SERIES + 3 * SERIES_TERMS + k for k, name in enumerate(INTEGERS)}
 N_PARAMS = T_SERIES + 3 * SERIES_TERMS + len(INTEGERS)
 (W_ANG, W_RATE, W_BIAS, W_RHO, W_RHO2, W_SER, W_UNIT, W_TR, W_GS, W_AA, W_AB, W_BB, W_INV, W_KA, W_KB,
- W_INN) = (_FMT[n] for n in FORMAT_FIELDS)
+ W_INN, W_LSIG) = (_FMT[n] for n in FORMAT_FIELDS)
 C_DTR, C_DT, C_F, C_QB, C_SV, C_360 = _CONST["dt_rad"], _CONST["dt"], _CONST["f_x"], _CONST["q_bx"], _CONST["sv_x"], _CONST["c_360"]
-P_ITER, P_DECOUPLE, P_SINM, P_COSM, P_ONE_U, P_ONE_T, P_DT_T = (_INT[n] for n in INTEGERS)
-# the yaw-only and the roll/pitch/yaw update (the ``axes`` argument of update_raw)
-YAW_ONLY, ALL_AXES = 1, 3
+C_LSIG = _CONST["level_sigma"]
+P_ITER, P_DECOUPLE, P_SINM, P_COSM, P_ONE_U, P_ONE_T, P_DT_T, P_LEVEL, P_LEVEL_RATE = (_INT[n] for n in INTEGERS)
+# the ``axes`` argument of update_raw: yaw only, roll/pitch/yaw, and the levelling's roll/pitch and pitch only
+# (the scalar updates run over the contiguous axes [lo, hi) of :func:`_axes_range`)
+YAW_ONLY, ALL_AXES, ROLL_PITCH, PITCH_ONLY = 1, 3, 4, 5
+LEVEL_OP = 8  # run_ops: the levelling op's kind
+LEVEL_DIFF_LIMIT = 1 << 30  # level_raw clamps |rate - b_0| (rate raws) here: exact for thresholds below it
 
 
 @njit(cache=True, _nrt=False)
@@ -264,17 +275,30 @@ def predict_raw(state, rate_raw, params, counts, work):
 
 
 @njit(cache=True, _nrt=False)
+def _axes_range(axes):
+    """The attitude rows [lo, hi) an update of ``axes`` uses (any other value: all three, as ALL_AXES)."""
+    if axes == YAW_ONLY:
+        return 2, 3
+    if axes == ROLL_PITCH:
+        return 0, 2
+    if axes == PITCH_ONLY:
+        return 1, 2
+    return 0, 3
+
+
+@njit(cache=True, _nrt=False)
 def update_raw(state, axes, ref_raw, var_raw, params, counts, work):
-    """One measurement update: ``axes`` = YAW_ONLY (H = e3^T, ref_raw[2] and var_raw[2] used) or ALL_AXES (H = [I3 0]);
-    references as binary angles, variances in the p_aa format (deg^2).  Sequential scalar updates (roll, pitch, yaw)
-    on the innovations of the prior, z_a - dx_a, then the closed-loop reset."""
+    """One measurement update: ``axes`` = YAW_ONLY (H = e3^T, ref_raw[2] and var_raw[2] used), ALL_AXES (H = [I3 0]),
+    ROLL_PITCH (the roll and pitch rows of [I3 0]) or PITCH_ONLY (the pitch row; :func:`_axes_range`); references as
+    binary angles, variances in the p_aa format (deg^2).  Sequential scalar updates (roll, pitch, yaw, those of
+    ``axes``) on the innovations of the prior, z_a - dx_a, then the closed-loop reset."""
     p = params
     fa, fb, finv, fka, fkb, finn = p[W_ANG + 1], p[W_BIAS + 1], p[W_INV + 1], p[W_KA + 1], p[W_KB + 1], p[W_INN + 1]
     faa = p[W_AA + 1]
     P = state[I_P:I_P + 36]
     work[WK_DX:WK_DX + 6] = 0
-    first = 2 if axes == YAW_ONLY else 0
-    for a in range(first, 3):
+    lo, hi = _axes_range(axes)
+    for a in range(lo, hi):
         z = _wrap(state[I_ATT + a] - ref_raw[a], p[W_ANG])  # the wrapped innovation Theta_INS - Theta_ref
         r = _wrap(z - work[WK_DX + a], p[W_ANG])
         sv = _add(P[7 * a], faa, var_raw[a], faa, p, W_AA, counts, S_S)
@@ -308,6 +332,70 @@ def update_raw(state, axes, ref_raw, var_raw, params, counts, work):
         state[I_BIAS + i] = _add(state[I_BIAS + i], fb, work[WK_DX + 3 + i], fb, p, W_BIAS, counts, S_BIAS_UPD)
 
 
+@njit(cache=True, _nrt=False)
+def tilt_raw(fx, fy, fz, iterations, work):
+    """(phi, theta, |(f_y, f_z)|, |f|) of a specific-force vector (count sums, int64): roll and pitch by levelling
+    (thesis digest 2.7 step 4, eqs 1.1-1.3 with the sensor's x, y, z), two CORDIC vectorings
+    (:func:`firmware_model.cordic.vectoring_lanes`, gain-compensated magnitudes, in the sums' units):
+        phi = atan2(f_y, f_z),   theta = atan2(-f_x, |(f_y, f_z)|)   (binary angles; theta in [-90, 90] deg)
+    Used at the node's start (:func:`firmware_model.six_state_firmware._start`) and by :func:`level_raw`."""
+    work[WK_CX], work[WK_CY] = fz, fy
+    cordic.vectoring_lanes(work[WK_CX:WK_CX + 1], work[WK_CY:WK_CY + 1], iterations, work[WK_CA:WK_CA + 1],
+                           work[WK_CS:WK_CS + 1])
+    phi, m_yz = work[WK_CA], work[WK_CX]
+    work[WK_CY] = -fx  # work[WK_CX] holds |(f_y, f_z)|
+    cordic.vectoring_lanes(work[WK_CX:WK_CX + 1], work[WK_CY:WK_CY + 1], iterations, work[WK_CA:WK_CA + 1],
+                           work[WK_CS:WK_CS + 1])
+    return phi, work[WK_CA], m_yz, work[WK_CX]
+
+
+@njit(cache=True, _nrt=False)
+def level_raw(state, rate_raw, accel_sum, n_samples, params, counts, work):
+    """The levelling update at a static tick (the fixed form of nodesim.chain.compiled.six_state_float_kernel.
+    level_update; :mod:`firmware_model.six_state_fixed`, "Levelling"): ``rate_raw`` (3,) the tick's rates (rate
+    format), ``accel_sum`` (3,) its accelerometer count sums over ``n_samples`` samples.  Returns 1 if the tick was
+    static and updated, else 0 (levelling off, a moving tick, a zero force vector).
+        static:   sum_i clamp(w_i - b_0,i)^2 < w_thr^2    exact integers on the rate raws (clamp at 2^30)
+        phi_m, theta_m, |f_yz|, |f| = tilt_raw(f)         (eqs 1.1-1.3 resolution, CORDIC)
+        sigma_F = c_sigma n                              the sums' noise, c_sigma = sigma_f S_a 180/pi (deg counts)
+        R_theta = (sigma_F / |f|)^2,  R_phi = (sigma_F / |f_yz|)^2          (p_aa, deg^2; sites level sigma, R)
+        update_raw(PITCH_ONLY or ROLL_PITCH, (phi_m, theta_m), (R_phi, R_theta))   (thesis eqs 3.27-3.31)
+    the roll skipped where cos(theta_m) < sin(margin) (near horizontal; cordic.sin_cos, the predict's test)."""
+    p = params
+    if p[P_LEVEL] == 0:
+        return 0
+    thr = p[P_LEVEL_RATE]
+    w2 = np.int64(0)
+    for i in range(3):
+        d = rate_raw[i] - state[I_B0 + i]
+        if d > LEVEL_DIFF_LIMIT:
+            d = np.int64(LEVEL_DIFF_LIMIT)
+        elif d < -LEVEL_DIFF_LIMIT:
+            d = np.int64(-LEVEL_DIFF_LIMIT)
+        w2 += d * d
+    if w2 >= thr * thr:
+        return 0
+    it = p[P_ITER]
+    phi, theta, m_yz, m = tilt_raw(accel_sum[0], accel_sum[1], accel_sum[2], it, work)
+    if m == 0:
+        return 0
+    fc, fl, faa = p[C_LSIG + 1], p[W_LSIG + 1], p[W_AA + 1]
+    sig = p[C_LSIG] * n_samples  # exact: |c_sigma raw| < 2^31, n_samples < 2^31
+    ref, var = work[WK_LREF:WK_LREF + 3], work[WK_LVAR:WK_LVAR + 3]
+    ref[0], ref[1], ref[2] = phi, theta, 0
+    var[0], var[2] = 0, 0
+    r = _div(sig, fc, m, 0, p, W_LSIG, counts, S_LSIG)
+    var[1] = _mul(r, fl, r, fl, p, W_AA, counts, S_LR)
+    axes = PITCH_ONLY
+    _, ct = cordic.sin_cos(theta, it)
+    if ct >= p[P_SINM]:  # roll defined: |(f_y, f_z)| >= |f| sin(margin)
+        r = _div(sig, fc, m_yz, 0, p, W_LSIG, counts, S_LSIG)
+        var[0] = _mul(r, fl, r, fl, p, W_AA, counts, S_LR)
+        axes = ROLL_PITCH
+    update_raw(state, axes, ref, var, p, counts, work)
+    return 1
+
+
 # ---- the float boundary (what the IMU driver and the radio deliver) -----------------------------------------------
 @njit(cache=True, _nrt=False)
 def predict(state, rates_rad_s, params, counts, work):
@@ -325,9 +413,9 @@ def predict(state, rates_rad_s, params, counts, work):
 def update(state, axes, ref_rad, var_rad2, params, counts, work, raw):
     """:func:`update_raw` with the references (roll, pitch, yaw) in rad and their variances in rad^2 (only the yaw's
     read with YAW_ONLY); ``raw`` int64[6] receives the converted words (binary angles, then p_aa variances)."""
-    first = 2 if axes == YAW_ONLY else 0
+    lo, hi = _axes_range(axes)
     raw[:] = 0
-    for a in range(first, 3):
+    for a in range(lo, hi):
         if not (math.isfinite(ref_rad[a]) and math.isfinite(var_rad2[a])) or var_rad2[a] < 0:
             raise FirmwareError("reference: non-finite value or negative variance; allowed finite rad, variance >= 0")
         raw[a] = _from_float_wrap(ref_rad[a] / TURN_RAD, params[W_ANG], params[W_ANG + 1])
@@ -356,11 +444,14 @@ def yaw_variance_rad2(state, params):
 @njit(cache=True, _nrt=False)
 def run_ops(state, params, counts, work, ops, states_out):
     """A sequence of raw steps (the C twin's ``nf6_run``, for the bit-exact tests and the benchmark): ``ops`` rows
-    (kind, a0, a1, a2, v0, v1, v2): kind 0 = predict_raw(rates a), 1 = update_raw(YAW_ONLY, refs a, variances v),
-    3 = update_raw(ALL_AXES, ...); the state after each op into ``states_out`` rows (if it has any)."""
+    (kind, a0, a1, a2, v0, v1, v2, n): kind 0 = predict_raw(rates a), 1 = update_raw(YAW_ONLY, refs a, variances v),
+    3, 4, 5 = update_raw(ALL_AXES, ROLL_PITCH, PITCH_ONLY, ...), LEVEL_OP (8) = level_raw(rates a, accelerometer
+    sums v, n samples); the state after each op into ``states_out`` rows (if it has any)."""
     for n in range(ops.shape[0]):
         if ops[n, 0] == 0:
             predict_raw(state, ops[n, 1:4], params, counts, work)
+        elif ops[n, 0] == LEVEL_OP:
+            level_raw(state, ops[n, 1:4], ops[n, 4:7], ops[n, 7], params, counts, work)
         else:
             update_raw(state, ops[n, 0], ops[n, 1:4], ops[n, 4:7], params, counts, work)
         if states_out.shape[0] > n:
@@ -381,3 +472,19 @@ def update_lanes(states, axes, ref_rad, var_rad2, mask, params, counts, work, ra
     for r in range(states.shape[0]):
         if mask[r]:
             update(states[r], axes, ref_rad[r], var_rad2[r], params, counts, work, raw)
+
+
+@njit(cache=True, _nrt=False)
+def level_lanes(states, rates_rad_s, accel_sums, n_samples, params, counts, work):
+    """:func:`level_raw` of every lane (rates (R, 3) in rad/s crossing into the rate format at site "gyro rate" as
+    in :func:`predict`, accelerometer count sums (R, 3) over ``n_samples`` samples); returns the number of lanes
+    levelled."""
+    done = 0
+    for r in range(states.shape[0]):
+        for i in range(3):
+            v = rates_rad_s[r, i] * RAD_TO_DEG
+            if not math.isfinite(v):
+                raise FirmwareError("gyro rates: non-finite value; allowed finite rad/s")
+            work[WK_LRATE + i] = _from_float_sat(v, params[W_RATE], params[W_RATE + 1], counts, S_GYRO)
+        done += level_raw(states[r], work[WK_LRATE:WK_LRATE + 3], accel_sums[r], n_samples, params, counts, work)
+    return done

@@ -204,8 +204,11 @@ void nf6_update(int64_t *st, int64_t axes, const int64_t *ref_raw, const int64_t
     const int64_t finn = F(NF6_W_INN), faa = F(NF6_W_AA);
     int64_t *P = st + NF6_I_P;
     int64_t dxv[6] = {0, 0, 0, 0, 0, 0}, row[6], kg[6];
-    int a, j, k;
-    for (a = axes == NF6_YAW_ONLY ? 2 : 0; a < 3; a++) {
+    int a, j, k, lo = 0, hi = 3; /* the rows of axes (six_state_kernel._axes_range) */
+    if (axes == NF6_YAW_ONLY) lo = 2;
+    else if (axes == NF6_ROLL_PITCH) hi = 2;
+    else if (axes == NF6_PITCH_ONLY) { lo = 1; hi = 2; }
+    for (a = lo; a < hi; a++) {
         const int64_t z = fx_wrap(st[NF6_I_ATT + a] - ref_raw[a], p[NF6_W_ANG]);
         const int64_t r = fx_wrap(z - dxv[a], p[NF6_W_ANG]);
         const int64_t sv = fx_add(P[7 * a], faa, var_raw[a], faa, W(NF6_W_AA), c, NF6_S_S);
@@ -242,14 +245,54 @@ void nf6_update(int64_t *st, int64_t axes, const int64_t *ref_raw, const int64_t
     }
 }
 
+void nf6_tilt(int64_t fx, int64_t fy, int64_t fz, int32_t it, int64_t *out)
+{
+    /* out = (phi, theta, |(f_y, f_z)|, |f|): phi = atan2(f_y, f_z), theta = atan2(-f_x, |(f_y, f_z)|) */
+    cordic_vectoring(fz, fy, it, &out[0], &out[2]);
+    cordic_vectoring(out[2], -fx, it, &out[1], &out[3]);
+}
+
+int64_t nf6_level(int64_t *st, const int64_t *rate_raw, const int64_t *acc, int64_t n_samples, const int64_t *p,
+                  int64_t *c)
+{
+    const int64_t thr = p[NF6_P_LEVEL_RATE], fc = F(NF6_C_LSIG), fl = F(NF6_W_LSIG);
+    int64_t w2 = 0, tilt[4], sig, r, ref[3], var[3], sn, cs, axes = NF6_PITCH_ONLY;
+    int i;
+    if (p[NF6_P_LEVEL] == 0) return 0;
+    for (i = 0; i < 3; i++) { /* static: sum clamp(w - b_0)^2 < w_thr^2, exact */
+        int64_t d = rate_raw[i] - st[NF6_I_B0 + i];
+        if (d > NF6_LEVEL_DIFF_LIMIT) d = NF6_LEVEL_DIFF_LIMIT;
+        else if (d < -NF6_LEVEL_DIFF_LIMIT) d = -NF6_LEVEL_DIFF_LIMIT;
+        w2 += d * d;
+    }
+    if (w2 >= thr * thr) return 0;
+    nf6_tilt(acc[0], acc[1], acc[2], (int32_t)p[NF6_P_ITER], tilt);
+    if (tilt[3] == 0) return 0;
+    sig = p[NF6_C_LSIG] * n_samples; /* the sums' noise sigma_F = c_sigma n (deg counts) */
+    ref[0] = tilt[0]; ref[1] = tilt[1]; ref[2] = 0;
+    var[0] = 0; var[2] = 0;
+    r = fx_div(sig, fc, tilt[3], 0, W(NF6_W_LSIG), c, NF6_S_LSIG);
+    var[1] = fx_mul(r, fl, r, fl, W(NF6_W_AA), c, NF6_S_LR);
+    cordic_sin_cos(tilt[1], (int32_t)p[NF6_P_ITER], &sn, &cs);
+    if (cs >= p[NF6_P_SINM]) { /* roll defined: |(f_y, f_z)| >= |f| sin(margin) */
+        r = fx_div(sig, fc, tilt[2], 0, W(NF6_W_LSIG), c, NF6_S_LSIG);
+        var[0] = fx_mul(r, fl, r, fl, W(NF6_W_AA), c, NF6_S_LR);
+        axes = NF6_ROLL_PITCH;
+    }
+    nf6_update(st, axes, ref, var, p, c);
+    return 1;
+}
+
 void nf6_run(int64_t *st, const int64_t *p, int64_t *c, const int64_t *ops, int64_t n_ops, int64_t *states_out)
 {
-    /* ops: n_ops rows of (kind, a0, a1, a2, v0, v1, v2): kind 0 = predict(rates a), 1 / 3 = update(axes = kind) */
+    /* ops: n_ops rows of (kind, a0, a1, a2, v0, v1, v2, n): kind 0 = predict(rates a), 1 / 3 / 4 / 5 = update(axes =
+     * kind), NF6_LEVEL_OP = level(rates a, accelerometer sums v, n samples) */
     int64_t n;
     int i;
     for (n = 0; n < n_ops; n++) {
-        const int64_t *op = ops + 7 * n;
+        const int64_t *op = ops + 8 * n;
         if (op[0] == 0) nf6_predict(st, op + 1, p, c);
+        else if (op[0] == NF6_LEVEL_OP) nf6_level(st, op + 1, op + 4, op[7], p, c);
         else nf6_update(st, op[0], op + 1, op + 4, p, c);
         for (i = 0; i < NF6_STATE_SIZE; i++) states_out[NF6_STATE_SIZE * n + i] = st[i];
     }

@@ -160,14 +160,17 @@ def six_state_firmware_config(scenario: Scenario) -> tuple[FirmwareConfig, SixSt
     """The builds a fixed-point 6-state node runs (:mod:`firmware_model.six_state_firmware`): the 2-state firmware's
     (its reference advance, R, the estimate frame's and the survey's words, on the z-axis tuning) and the 6-state
     filter's (:class:`firmware_model.six_state_fixed.SixStateFixedConfig` of :func:`six_state_config`, with the
-    ``firmware.cordic_iterations`` the survey uses: one CORDIC build); errors name the key."""
+    ``firmware.cordic_iterations`` the survey uses: one CORDIC build, and the accelerometer's counts per m/s^2, the
+    levelling's noise in the count sums' units); errors name the key."""
     f = scenario.filter
     if f.fixed_word_bits != 32:
         raise NodesimError(f"filter.fixed_word_bits = {f.fixed_word_bits} with filter.states = 6: the fixed-point "
                            "6-state filter is built for 32-bit words; allowed: 32")
     try:
-        build6 = SixStateFixedConfig.from_filter_config(six_state_config(scenario), formats=CHAIN_SIX_STATE_FORMATS,
-                                                        cordic_iterations=scenario.firmware.cordic_iterations)
+        build6 = SixStateFixedConfig.from_filter_config(
+            six_state_config(scenario), formats=CHAIN_SIX_STATE_FORMATS,
+            cordic_iterations=scenario.firmware.cordic_iterations,
+            accel_counts_per_m_s2=ChainImu.from_scenario(scenario).accel_lsb_per_m_s2)
         firmware = _firmware_build(scenario, _yaw_filter_config(scenario))
         check_six_state_formats(_firmware_params(firmware)[1], six_state_params(build6)[0])
     except FirmwareError as err:

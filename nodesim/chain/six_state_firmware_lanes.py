@@ -53,6 +53,11 @@ class SixStateFirmwareLanes(FirmwareLanes):
     def singular_ticks(self) -> np.ndarray:
         return self.states[:, n6.O6 + k6.I_SING].copy()
 
+    @property
+    def levelled_ticks(self) -> np.ndarray:
+        """(R,) the ticks the filter was levelled (static, ``filter.levelling = "static"``)."""
+        return self.states[:, n6.S_LEVELLED].copy()
+
 
 def firmware_lanes(scenario: Scenario, realizations: int) -> FirmwareLanes:
     """The fixed-point node firmware a node of ``scenario`` runs: 2-state or 6-state (``filter.states``)."""

@@ -240,7 +240,8 @@ class FilterSection(_Section):
         "below levelling_rate_deg_s) its accelerometer's roll and pitch update the filter (thesis eqs 3.27-3.31 on "
         "the roll/pitch rows, resolved from gravity as at a survey station, eqs 1.1-1.3; docs/deviated_wells.md); "
         "'off' = yaw-only references, with which roll, pitch and the x, y biases are unobservable and run away in "
-        "a long string. Default: 'static' for the float filter, 'off' for the fixed one (which does not have it yet)")
+        "a long string. Default: 'static' (float and fixed; the fixed firmware's is "
+        "firmware_model.six_state_kernel.level_raw, bit-exact with its C twin)")
     levelling_rate_deg_s: float = Field(
         0.5, gt=0.0, le=100.0, description="states = 6, levelling = 'static': a tick is static when the norm of "
         "the gyro rates minus the start bias (the static window's) is below this")
@@ -273,10 +274,6 @@ class FilterSection(_Section):
                 raise ValueError(f"filter.discretisation = {self.discretisation!r} with filter.states = 6 and "
                                  "filter.implementation = 'fixed': the fixed-point 6-state filter implements only "
                                  "'rotation' (firmware_model.six_state_fixed); allowed: discretisation = 'rotation'")
-            if self.levelling == "static":
-                raise ValueError("filter.levelling = 'static' with filter.states = 6 and filter.implementation = "
-                                 "'fixed': the fixed-point 6-state firmware has no levelling update yet; allowed: "
-                                 "'off' (or implementation = 'float')")
             if self.fixed_word_bits != 32:
                 raise ValueError(f"filter.fixed_word_bits = {self.fixed_word_bits} with filter.states = 6 and "
                                  "filter.implementation = 'fixed': the fixed-point 6-state filter is built for "
@@ -291,10 +288,9 @@ class FilterSection(_Section):
 
     @property
     def levelling_mode(self) -> str:
-        """``levelling`` with its default resolved: 'static' for the float 6-state filter, 'off' for the fixed one."""
-        if self.levelling is not None:
-            return self.levelling
-        return "static" if self.implementation == "float" else "off"
+        """``levelling`` with its default resolved: 'static' (both implementations: without it a long string's
+        6-state filters run away, docs/deviated_wells.md)."""
+        return self.levelling if self.levelling is not None else "static"
 
 
 class FirmwareSection(_Section):

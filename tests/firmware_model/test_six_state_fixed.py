@@ -150,4 +150,40 @@ def test_narrow_formats_are_rejected_naming_the_key():
 
 def test_the_default_build_passes_its_checks_with_the_thesis_tuning():
     cfg = SixStateFixedConfig.from_filter_config(_float_config())
-    assert cfg.params().shape == (114,) and "SixStateFixedFilter" in repr(SixStateFixedFilter(cfg, 1))
+    assert cfg.params().shape == (121,) and "SixStateFixedFilter" in repr(SixStateFixedFilter(cfg, 1))
+
+
+LEVEL = dict(levelling=True, levelling_rate_rad_s=0.5 * DEG, levelling_force_sigma_m_s2=2.87e-3)
+
+
+@pytest.mark.parametrize("filter_kwargs, counts_per_m_s2, fragments", [
+    ({}, 0.0, ("accel_counts_per_m_s2 = 0.0", "levelling", "> 0")),
+    ({}, float("nan"), ("accel_counts_per_m_s2",)),
+    (dict(levelling_rate_rad_s=1e-7 * DEG), 1670.0, ("levelling_rate_rad_s", "formats.rate")),
+    (dict(levelling_force_sigma_m_s2=10.0), 1670.0, ("levelling_force_sigma_m_s2", "formats.level_sigma")),
+    (dict(levelling_force_sigma_m_s2=1e-12), 1670.0, ("levelling_force_sigma_m_s2", "formats.level_sigma")),
+])
+def test_bad_levelling_builds_are_rejected_naming_the_key(filter_kwargs, counts_per_m_s2, fragments):
+    with pytest.raises(FirmwareError) as info:
+        SixStateFixedConfig.from_filter_config(_float_config(**{**LEVEL, **filter_kwargs}),
+                                               accel_counts_per_m_s2=counts_per_m_s2)
+    for fragment in fragments:
+        assert fragment in str(info.value)
+
+
+def test_a_levelling_build_levels_a_static_lane_only():
+    """SixStateFixedFilter.level: a static lane (rates = its start bias) moves to the accelerometer's roll and
+    pitch (f = C_n^b [0, 0, g] at roll 3 deg, pitch -2 deg, as count sums), a turning one (1 deg/s) does not;
+    without levelling nothing moves."""
+    s_a, n = 1670.0, 100
+    roll, pitch = 3 * DEG, -2 * DEG
+    force = 9.81 * np.array([-math.sin(pitch), math.sin(roll) * math.cos(pitch), math.cos(roll) * math.cos(pitch)])
+    sums = np.rint(force * s_a * n).astype(np.int64)
+    cfg = SixStateFixedConfig.from_filter_config(_float_config(**LEVEL), accel_counts_per_m_s2=s_a)
+    fix = SixStateFixedFilter(cfg, 2, initial_attitude_rad=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]))
+    assert fix.level([[0, 0, 0], [0, 0, 1 * DEG]], sums, n) == 1
+    att = fix.attitude_rad
+    assert np.abs(att[0, :2] - [roll, pitch]).max() < 0.01 * DEG  # P0 (1 deg sigma) >> R ((sigma_f / g)^2)
+    assert np.array_equal(att[1], [0.0, 0.0, 0.0])
+    off = SixStateFixedFilter(SixStateFixedConfig.from_filter_config(_float_config()), 1)
+    assert off.level([0, 0, 0], sums, n) == 0 and np.array_equal(off.attitude_rad[0], [0.0, 0.0, 0.0])

@@ -1,8 +1,9 @@
 """The 6-state fixed filter's numba kernels (firmware_model.six_state_kernel) equal the C reference
 (firmware_model/c/six_state_filter.c) bit for bit, with equal per-site overflow counts, on hypothesis cases: random
 gyro rates, references, update kinds (none, yaw only, roll/pitch/yaw), initial attitudes and covariances (random
-positive definite P0 and arbitrary raw words), tunings and singularity modes; a saturation profile drives the
-overflow counters.  Also the CORDIC rotation mode (cordic.sin_cos) against cordic_sin_cos and math.sin/cos."""
+positive definite P0 and arbitrary raw words), tunings and singularity modes, and the levelling op (level_raw:
+the static test, the CORDIC tilt, R, the roll/pitch or pitch-only update) with rates near and far from the start
+bias and random accelerometer sums; a saturation profile drives the overflow counters.  Also the CORDIC rotation mode (cordic.sin_cos) against cordic_sin_cos and math.sin/cos."""
 
 import math
 
@@ -22,14 +23,19 @@ EXAMPLES_NORMAL, EXAMPLES_SATURATING = 7000, 3000  # >= 10,000 cases in all, x S
 I32 = st.integers(-(2**31), 2**31 - 1)
 
 
-def _config(margin_deg=5.0, singularity="hold", tuning_a=1.0, iterations=cordic.MAX_ITERATIONS):
+def _config(margin_deg=5.0, singularity="hold", tuning_a=1.0, iterations=cordic.MAX_ITERATIONS, levelling=False,
+            rate_deg_s=0.5, sigma_m_s2=1.4e-3, counts_per_m_s2=1670.0):
     f = SixStateFilterConfig(dt_s=1 / 1.9, arw_rad_per_sqrt_s=(7.38e-3 * DEG, 8e-3 * DEG, 7e-3 * DEG),
                              bias_instability_rad_s=3.33e-3 * DEG, tuning_a=tuning_a,
-                             singularity_margin_rad=margin_deg * DEG, singularity=singularity)
-    return SixStateFixedConfig.from_filter_config(f, cordic_iterations=iterations)
+                             singularity_margin_rad=margin_deg * DEG, singularity=singularity, levelling=levelling,
+                             levelling_rate_rad_s=rate_deg_s * DEG, levelling_force_sigma_m_s2=sigma_m_s2)
+    return SixStateFixedConfig.from_filter_config(f, cordic_iterations=iterations,
+                                                  accel_counts_per_m_s2=counts_per_m_s2)
 
 
-CONFIGS = [_config(), _config(singularity="decouple"), _config(margin_deg=20.0, tuning_a=3.0, iterations=16)]
+CONFIGS = [_config(), _config(singularity="decouple"), _config(margin_deg=20.0, tuning_a=3.0, iterations=16),
+           _config(levelling=True), _config(levelling=True, singularity="decouple", margin_deg=20.0, iterations=16,
+                                            rate_deg_s=5.0, sigma_m_s2=0.05, counts_per_m_s2=100.0)]
 PARAMS = [c.params() for c in CONFIGS]
 
 
@@ -51,10 +57,10 @@ def _run_both(clib, params, state, ops):
     return out_py, out_c, c_py, c_c
 
 
-def _state(att, bias, p_kind, p_seed):
+def _state(att, bias, p_kind, p_seed, b0):
     p_entries = np.random.default_rng(p_seed).integers(-(2**31), 2**31, 36)  # hypothesis picks the seed
     st_ = np.zeros(k6.STATE_SIZE, np.int64)
-    st_[:3], st_[3:6] = att, bias
+    st_[:3], st_[3:6], st_[k6.I_B0:k6.I_B0 + 3] = att, bias, b0
     if p_kind == "spd":  # L L^T of a random lower-triangular L, in raw units of each block (small entries)
         lower = np.tril(np.array(p_entries, dtype=np.int64).reshape(6, 6) >> 17)
         st_[6:42] = (lower @ lower.T).reshape(-1) >> 4
@@ -66,25 +72,48 @@ def _state(att, bias, p_kind, p_seed):
     return st_
 
 
-def _op(kind, rates_or_refs, variances):
-    return [kind, *rates_or_refs, *variances]
+def _op(kind, rates_or_refs, variances, n=0):
+    return [kind, *rates_or_refs, *variances, n]
 
 
 normal_rate = st.integers(-(90 << 16), 90 << 16)  # +/- 90 deg/s in Q16.16
-op_normal = st.tuples(st.sampled_from([0, 0, 1, 3]), st.tuples(*[st.one_of(normal_rate, I32)] * 3),
-                      st.tuples(*[st.integers(0, 1 << 24)] * 3))
-op_saturating = st.tuples(st.sampled_from([0, 1, 3]), st.tuples(I32, I32, I32), st.tuples(I32, I32, I32))
+near_b0 = st.integers(-(1 << 15), 1 << 15)  # a level op's rate offset from b_0, +/- 0.5 deg/s (thresholds 0.5, 5)
+accel_sum = st.one_of(st.integers(-(1 << 24), 1 << 24), st.integers(-200, 200), st.just(0), I32)
+op_normal = st.tuples(st.sampled_from([0, 0, 1, 3, 4, 5, k6.LEVEL_OP, k6.LEVEL_OP]),
+                      st.tuples(*[st.one_of(normal_rate, I32)] * 3), st.tuples(*[st.integers(0, 1 << 24)] * 3),
+                      st.booleans(), st.tuples(*[near_b0] * 3), st.tuples(*[accel_sum] * 3), st.integers(0, 2000))
+op_saturating = st.tuples(st.sampled_from([0, 1, 3, 4, 5, k6.LEVEL_OP]), st.tuples(I32, I32, I32),
+                          st.tuples(I32, I32, I32), st.booleans(), st.tuples(*[near_b0] * 3),
+                          st.tuples(I32, I32, I32), st.integers(0, 1 << 20))
 
 
-def _check(clib, cfg_i, att, bias, p_kind, p_entries, ops):
-    state = _state(att, bias, p_kind, p_entries)
-    ops = np.array([_op(k, a, np.abs(np.array(v)) if k else v) for k, a, v in ops], dtype=np.int64)
+def _ops(ops, b0):
+    """The op rows: a level op takes the accelerometer sums and n, its rates b_0 + offset where ``near``."""
+    rows = []
+    for kind, a, v, near, offset, acc, n in ops:
+        if kind == k6.LEVEL_OP:
+            rates = [b + o for b, o in zip(b0, offset)] if near else a
+            rows.append(_op(kind, rates, acc, n))
+        else:
+            rows.append(_op(kind, a, np.abs(np.array(v)) if kind else v))
+    return np.array(rows, dtype=np.int64)
+
+
+def _check(clib, cfg_i, att, bias, p_kind, p_entries, ops, b0=None):
+    b0 = bias if b0 is None else b0
+    state = _state(att, bias, p_kind, p_entries, b0)
+    ops = _ops(ops, b0)
     out_py, out_c, c_py, c_c = _run_both(clib, PARAMS[cfg_i], state, ops)
     np.testing.assert_array_equal(out_py, out_c)
     np.testing.assert_array_equal(c_py, c_c)
+    before = np.vstack([state[None], out_py[:-1]])
+    for n in np.flatnonzero(ops[:, 0] == k6.LEVEL_OP) if PARAMS[cfg_i][k6.P_LEVEL] else ():
+        # a level op of a levelling build that changed the lane levelled it
+        LEVEL_OPS["levelled" if np.any(out_py[n] != before[n]) else "skipped"] += 1
     return c_py
 
 
+LEVEL_OPS = {"levelled": 0, "skipped": 0}
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
@@ -101,9 +130,10 @@ SATURATED: dict[str, int] = {}
 
 @settings(max_examples=EXAMPLES_SATURATING, **SETTINGS)
 @given(cfg_i=st.integers(0, len(CONFIGS) - 1), att=st.tuples(I32, I32, I32), bias=st.tuples(I32, I32, I32),
-       p_entries=st.integers(0, 2**64 - 1), ops=st.lists(op_saturating, min_size=STEPS, max_size=STEPS))
-def test_kernel_equals_c_when_saturating(clib, cfg_i, att, bias, p_entries, ops):
-    counts = _check(clib, cfg_i, att, bias, "raw", p_entries, ops)
+       p_entries=st.integers(0, 2**64 - 1), ops=st.lists(op_saturating, min_size=STEPS, max_size=STEPS),
+       b0=st.tuples(I32, I32, I32))
+def test_kernel_equals_c_when_saturating(clib, cfg_i, att, bias, p_entries, ops, b0):
+    counts = _check(clib, cfg_i, att, bias, "raw", p_entries, ops, b0)
     for i in np.flatnonzero(counts):
         SATURATED[k6.SITES[i]] = SATURATED.get(k6.SITES[i], 0) + int(counts[i])
 
@@ -114,6 +144,16 @@ def test_the_saturation_cases_hit_the_counters():
     if not SATURATED:
         pytest.skip("run with test_kernel_equals_c_when_saturating")
     assert len(SATURATED) >= 10, SATURATED
+
+
+def test_the_level_ops_were_exercised():
+    """Runs after the hypothesis tests: a good share of the levelling builds' level ops was static and updated (the
+    comparison covered the update, not only the static test's early return), and the levelling's sites saturated."""
+    if not SATURATED:
+        pytest.skip("run with the hypothesis tests")
+    total = LEVEL_OPS["levelled"] + LEVEL_OPS["skipped"]
+    assert LEVEL_OPS["levelled"] >= 0.2 * total, LEVEL_OPS
+    assert {"level sigma", "level R"} <= set(SATURATED), SATURATED
 
 
 def test_layout_constants_agree(clib):

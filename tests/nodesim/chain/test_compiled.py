@@ -292,6 +292,7 @@ SIX_STATE.update({  # the fixed-point 6-state node firmware (firmware_model.six_
                                                         "motion.inclination_deg": 45.0},
     "fixed 6-state, dead node, fallback": {**CASES["dead node, fallback"], **FIXED6},
     "fixed 6-state, drilling, lossy hops": {**DRILL_LOSSY, **FIXED6},
+    "fixed 6-state, drilling, levelling off": {**DRILL_LOSSY, **FIXED6, "filter.levelling": "off"},
     "fixed 6-state, 89 deg, decouple": {**BASE, **FIXED6, "motion.inclination_deg": 89.0,
                                         "filter.singularity": "decouple"},
 })

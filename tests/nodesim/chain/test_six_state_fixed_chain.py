@@ -26,7 +26,8 @@ from nodesim.chain.six_state_firmware_lanes import SixStateFirmwareLanes
 from nodesim.scenario.schema import Scenario
 from nodesim.sensors.chain_imu import ChainImu, sensor_force
 
-SCENARIO = Scenario().with_overrides(**{"filter.states": 6, "filter.implementation": "fixed"})
+SCENARIO = Scenario().with_overrides(**{"filter.states": 6, "filter.implementation": "fixed",
+                                        "filter.levelling": "static"})
 FIRMWARE, BUILD = six_state_firmware_config(SCENARIO)
 P6, LANE0 = six_state_params(BUILD)
 DEG2 = (180.0 / math.pi) ** 2
@@ -96,6 +97,51 @@ def test_twist_update_follows_the_float_twist_update():
         assert np.max(np.abs(_p_rad(st, frac) - fl[6:].reshape(6, 6)) / np.outer(d, d)) < 2e-4
     assert moved > 1e-3  # the updates moved the attitude by far more than the tolerance
     assert not counts.any()
+
+
+@pytest.mark.parametrize("inclination_deg", [2.0, 45.0, 88.0])
+def test_levelling_update_follows_the_float_levelling(inclination_deg):
+    """One levelling update (six_state_kernel.level_raw) at a static tick from random correlated covariances, the
+    accelerometer's count sums at a random toolface and a small attitude error: the float chain filter's
+    level_update (Joseph form, the same count sums as its mean force) and the fixed one differ by the formats'
+    rounding and the CORDIC (the tolerances of the twist update's test above), plus, for the attitude, what the
+    second scalar update adds: after the first (K ~ 1, R ~ (sigma_f / g)^2 = 2.8e-4 deg^2 = 4.7 k LSB of p_aa) the
+    covariance entries it reads are R-sized and carry up to 4 LSB of p_aa (a rounded product, a rounded
+    difference, the gain's rounding, the mirrored entry), so its gain is off by up to 4 LSB / R and the attitude
+    by that times the innovation |z|.  Near horizontal (88 deg, inside the 5 deg margin) both skip the roll."""
+    rng = np.random.default_rng(int(inclination_deg))
+    counts, work = np.zeros(len(k6.SITES), np.int64), np.zeros(k6.WORK_SIZE, np.int64)
+    imu = ChainImu.from_scenario(SCENARIO)
+    params = ssk.kernel_params(estimator.six_state_config(SCENARIO))
+    assert params[ssk.P_LEVEL] == 1.0 and P6[k6.P_LEVEL] == 1
+    bias_lsb = 2.0**-16 * math.pi / 180.0
+    n, moved, worst = 100, 0.0, 0.0
+    for _ in range(100):
+        twist = rng.uniform(-math.pi, math.pi)
+        force = sensor_force(np.array([math.radians(inclination_deg)]), np.array([0.5]), np.array([twist]))[0]
+        sums = np.rint(force * imu.accel_lsb_per_m_s2 * n).astype(np.int64)
+        tilt = level_attitude((sums / (n * imu.accel_lsb_per_m_s2))[None], np.array([0.0]))[0]
+        att = np.r_[tilt[:2] + rng.normal(0, 0.01, 2), rng.uniform(-3, 3)]
+        bias = rng.normal(0, 1e-3, 3)
+        sig = np.r_[rng.uniform(0.002, 0.05, 3), rng.uniform(1e-5, 1e-4, 3)]
+        p = np.corrcoef(rng.normal(size=(6, 12))) * np.outer(sig, sig)
+        st, frac = _lane(att, bias, p)
+        fl = np.r_[_rad(st[:3]), st[3:6] * bias_lsb, _p_rad(st, frac).ravel(), st[3:6] * bias_lsb]  # b_0 = b
+        before = fl[:3].copy()
+        assert ssk.level_update(fl, fl[3:6], sums / (n * imu.accel_lsb_per_m_s2), params)
+        assert k6.level_raw(st, st[k6.I_BIAS:k6.I_BIAS + 3].copy(), sums, n, P6, counts, work) == 1  # rates = b_0
+        z = np.max(np.abs(_wrapped(before[:2] - tilt[:2])))
+        r_deg2 = (params[ssk.P_LEVEL_VAR] ** 0.5 * imu.accel_lsb_per_m_s2 * n / np.linalg.norm(sums)) ** 2 * DEG2
+        second = z * 4 * 2.0 ** -BUILD.formats.p_aa.frac_bits / r_deg2
+        moved = max(moved, np.max(np.abs(_wrapped(fl[:2] - before[:2]))))
+        worst = max(worst, np.max(np.abs(_wrapped(_rad(st[:3]) - fl[:3]))) / (2e-6 + second))
+        assert np.max(np.abs(_wrapped(_rad(st[:3]) - fl[:3]))) < 2e-6 + second
+        assert np.max(np.abs(st[3:6] * bias_lsb - fl[3:6])) <= 2 * bias_lsb
+        d = np.sqrt(np.diag(p))
+        assert np.max(np.abs(_p_rad(st, frac) - fl[6:42].reshape(6, 6)) / np.outer(d, d)) < 2e-4
+    assert moved > 1e-3  # the updates moved the attitude by far more than the tolerance
+    assert not counts.any()
+    print(f"worst attitude difference / bound: {worst:.3f}")
 
 
 @pytest.mark.parametrize("inclination_deg", [2.0, 45.0, 70.0])
