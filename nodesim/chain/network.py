@@ -455,12 +455,12 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     SimPy event engine; both give the same numbers).  ``progress(fraction)`` is called as the run advances.
     ``on_node(run, surveys)`` streams the run (:mod:`nodesim.chain.streaming`): called with each node's records as
     they are complete, what it returns becomes the node's summary and the ChainRun keeps no per-tick records."""
-    from nodesim.allocator import keep_freed_memory
+    from nodesim.chain.allocator import keep_freed_memory
     from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
 
     require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     if scenario.simulation.realizations > 1:
-        keep_freed_memory()  # a batch reuses the pages the last one freed (nodesim.allocator)
+        keep_freed_memory()  # a batch reuses the pages the last one freed (nodesim.chain.allocator)
     if choose_engine(scenario) == "compiled":
         return simulate_compiled(Network(scenario, attach_signals=False), progress, on_node)
     return Network(scenario).run(progress, on_node=on_node)

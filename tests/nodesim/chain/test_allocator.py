@@ -1,4 +1,4 @@
-"""nodesim.allocator: glibc keeps the memory a batched run frees; results never change."""
+"""nodesim.chain.allocator: glibc keeps the memory a batched run frees; results never change."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from nodesim import allocator
+from nodesim.chain import allocator
 from nodesim.chain.network import simulate_chain
 from nodesim.scenario.schema import Scenario
 
