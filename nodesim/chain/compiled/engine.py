@@ -427,13 +427,15 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
                                f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
-ATTACH_AHEAD = 4
+ATTACH_AHEAD = 2
 """A streamed run's phase 2 computes the sensor readings of this many nodes at a time on the worker threads, a batch
 ahead of the node it runs (:meth:`Network.prepare_signals`), and gives a node its readings and records as it reaches
 it (:meth:`Network.attach_signals`): it holds two batches' readings and three nodes' records (the node and the two
 above it that the nodes below read), not the chain's, and its sensors run beside its filters.  A run that keeps every
 record gains nothing from that and attaches every node's before phase 1, as before streamed runs existed (a
-1000-realization batch timed ~10-15 % slower attaching them as phase 2 went, at load ~2; not isolated)."""
+1000-realization batch timed ~10-15 % slower attaching them as phase 2 went, at load ~2; not isolated).  Two, not
+four: the drilling day peaked at 3.885 / 3.886 GB in 102.4 / 111.9 s with two, 3.999 GB in 115.1 s with four (one
+`nodesim run` each, interleaved, 2026-12-03)."""
 
 
 def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_node: Callable | None = None):
