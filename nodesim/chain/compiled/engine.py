@@ -39,7 +39,7 @@ from firmware_model import six_state_fixed as six_state
 from nodesim.chain import bit_errors
 from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node
 from nodesim.chain.compiled import tick_plan as tp
-from nodesim.chain.compiled.references import float_references
+from nodesim.chain.compiled.references import above_nodes, float_references
 from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
@@ -205,7 +205,8 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                 fb.fallback_after_failures, fb.fallback_min_margin_db)
     asks = (plan == tp.ASK).sum(axis=1)  # each node's encoder requests, node by node in the records
     ask_first = np.concatenate(([0], np.cumsum(asks)[:-1])).astype(np.int64)
-    nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick, ask_first)
+    A = max(int(asks.sum()), 1)
+    nodes_cfg = (c.processing_s, c.max_update_age_s, net.forward_every_tick)
     mac = np.array([float(m.enabled), m.max_retries, m.queue_length, m.turnaround_s, m.ack_timeout_s, m.duty_cycle])
     slots = INBOX_SLOTS
     L, radios = len(links.links), N + 1
@@ -221,7 +222,6 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         for a in bits[8:10]:
             a[:] = 0
         bits[10][:] = -1
-        A = max(int(asks.sum()), 1)
         out = ev.Records(np.zeros((N, Kmax), dtype=bool), np.zeros((R, N, Kmax), dtype=bool),
                          np.full((R, N, Kmax), -1, np.int8), np.full((R, N, Kmax), -1, np.int32),
                          np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
@@ -251,8 +251,8 @@ def _each_chunk(T, K, dead_at, run: Callable) -> tuple[int, int]:
     DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    heap, counters, next_k, total = ev.first_events(T, K, dead_at)
-    size = min(ev.CHUNK_EVENTS, max(total, 1))
+    heap, counters, next_k = ev.first_events(T, K, dead_at)
+    size = min(ev.CHUNK_EVENTS, max(int(K.sum()), 1))  # the run's ticks: at least its events
     buffers = [(np.empty(size, np.int32), np.empty(size, np.int32)) for _ in range(2)]
 
     def make(i: int) -> tuple:
@@ -303,7 +303,7 @@ def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
     node.running[:] = out.running[n, :K]
     node.applied = out.applied[:, n, :K]
     node.stale, node.duplicate = out.stale[:, n].copy(), out.duplicate[:, n].copy()
-    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    above = above_nodes(net, n)
     node.age = np.full((net.R, K), np.nan)
     ev.forwarded_ages(node.t_s, out.src_offset[:, n, :K], out.src_tick[:, n, :K], above[0].t_s, above[1].t_s, node.age)
     ask, rows = _asks(n, codes, out)
@@ -393,7 +393,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     if ask.size:
         yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
         enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
-    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    above = above_nodes(net, n)
     node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)

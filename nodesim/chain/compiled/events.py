@@ -59,6 +59,8 @@ class Records(NamedTuple):
     stale: np.ndarray  # (R, N) int64
     duplicate: np.ndarray  # (R, N) int64
     ask_first: np.ndarray  # (N,) int64: node n's first request in ``ask_*`` (its requests follow in tick order)
+
+
 CHUNK_EVENTS = 1 << 22
 """Events per chunk (32 MB of order; a chunk is run in every realization before the next is made)."""
 
@@ -171,23 +173,13 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, s
 
 
 def first_events(T, K, dead_at) -> tuple:
-    """SimPy's event queue at t = 0 (each node's first tick) and how many events the run has: (heap (times (N,),
-    creation counters (N,), nodes (N,)), counters [size, next creation counter], next tick (N,), total events)."""
+    """SimPy's event queue at t = 0 (each node's first tick): (heap (times (N,), creation counters (N,), nodes (N,)),
+    counters [size, next creation counter], next tick (N,))."""
     N = T.shape[0]
     heap = (np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64))
     counters, next_k = np.zeros(2, dtype=np.int64), np.zeros(N, dtype=np.int64)
     _first_events(T, K, dead_at, heap, counters)
-    return heap, counters, next_k, int(_event_count(T, K, dead_at))
-
-
-@njit(cache=True, nogil=True)
-def _event_count(T, K, dead_at) -> int:
-    total = 0
-    for n in range(T.shape[0]):
-        for k in range(K[n]):
-            if T[n, k] < dead_at[n]:
-                total += 1
-    return total
+    return heap, counters, next_k
 
 
 @njit(cache=True, nogil=True)
@@ -244,13 +236,13 @@ def run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, c
     """Run the events ``chunk`` = (nodes, ticks) from :func:`next_events`, the run's events ``e_first`` on, in
     realizations ``r_first`` .. ``r_end - 1`` (module docstring; disjoint ranges may run on parallel threads).
     ``T`` (N, K): the nodes' tick times; ``cursor`` = (next survey (R, N), next encoder request (R, N)) of each node,
-    kept from chunk to chunk (start: ``surveys`` first, ``nodes_cfg`` ask_first).  ``plan``
+    kept from chunk to chunk (start: ``surveys`` first, ``out.ask_first``).  ``plan``
     (N, K): each tick's code (:mod:`.tick_plan`); ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
     arrival (R, S), event (S,), skip (N,)): the surveys node n sends, ``first[n]`` .. ``stop[n] - 1`` in tick
     order, each at its tick, up to the top node of its time and the ground station (arrival NaN where lost; its
     event's index, written by realization 0; ``skip[h]``: node h may send a survey its neighbour above left
     unanswered on to node h - 2); ``nodes_cfg`` = (processing_s,
-    max_age_s, every_tick, ask_first (N,): node n's first encoder request among all the run's, node by node);
+    max_age_s, every_tick);
     ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures, min_margin_db); ``draws`` (R, L, 4): each
     link's PCG64 state, ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out``: the :class:`Records` it fills (the
     encoder requests node by node; ``running`` is the same in every realization and written by realization 0).  The age of a forwarded reference is not kept: it is
@@ -260,7 +252,7 @@ def run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, c
     Returns a status code."""
     N = T.shape[0]
     ev_node, ev_tick = chunk
-    processing_s, max_age_s, every_tick = nodes_cfg[:3]
+    processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     s_first, s_stop, s_tick, s_top, s_arrival, s_event, s_skip = surveys
     running, applied, src_offset, src_tick, ask_t_read, ask_age, stale, dup, _ = out  # a :class:`Records`

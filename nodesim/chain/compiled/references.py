@@ -5,6 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 
+def above_nodes(net, n: int) -> tuple:
+    """(node above, node two above) node index ``n``: the senders of the references it may take (``src_offset`` 1,
+    2); the node itself stands in where there is none (its records are then never read)."""
+    node = net.nodes[n]
+    return tuple(net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2))
+
+
 def float_references(net, n: int, encoder_reads: tuple, src_offset: np.ndarray) -> tuple:
     """Node index ``n``'s (encoder reference (R, K) at its ``ASK`` ticks, a (1, 1) stand-in where it never asks;
     how far up each tick's forwarded reference came from (R, K): 1, 2 or -1 for none; the (node above, node two
@@ -17,6 +24,6 @@ def float_references(net, n: int, encoder_reads: tuple, src_offset: np.ndarray) 
     if ask.size:
         enc_ref[:, ask] = yaw_enc - rate_enc * (t_read - node.t_s[ask])
     offset = src_offset[:, n, :K]
-    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    above = above_nodes(net, n)
     up = (tuple(a.t_s for a in above), tuple(a.yaw for a in above), tuple(a.var for a in above))
     return enc_ref, offset, up
