@@ -262,13 +262,13 @@ class Run:
         return out
 
     def _write(self, out: Path, plots: bool, t0: float) -> None:
-        from nodesim.chain.streaming import PARQUET_OPTIONS
+        from nodesim.chain.streaming import PARQUET_OPTIONS, timeseries_table
 
         for name, columns in self._tables.items():
             if name == "timeseries" and self._streamed is not None:
                 self._place_streamed(out)
             elif name == "timeseries" and self.scenario.output.format == "parquet":
-                write_parquet(out / "timeseries.parquet", columns, **PARQUET_OPTIONS)
+                write_parquet(out / "timeseries.parquet", timeseries_table(columns), **PARQUET_OPTIONS)
             else:
                 write_csv(out / f"{name}.csv", columns)
         rows = bool(self._streamed[1].node_ids) if self._streamed else self._tables["timeseries"]["node"].size > 0

@@ -45,10 +45,13 @@ def burst(scenario: Scenario, hop: int) -> BurstLoss | None:
 
 
 def stepped_ticks(scenario: Scenario, node_id: int, t_s: np.ndarray, duration_s: float) -> np.ndarray:
-    """Tick times after the node's clock steps (kept increasing and inside [0, duration])."""
-    for step in scenario.faults.clock_step:
-        if step.node == node_id:
-            t_s = np.where(t_s >= step.at_s, t_s + step.step_s, t_s)
+    """Tick times after the node's clock steps (kept increasing and inside [0, duration]).  Without a step the
+    ticks (increasing, :func:`nodesim.chain.network.tick_times`) are the slice inside [0, duration], a view."""
+    steps = [step for step in scenario.faults.clock_step if step.node == node_id]
+    if not steps:
+        return t_s[np.searchsorted(t_s, 0.0, side="left"):np.searchsorted(t_s, duration_s, side="right")]
+    for step in steps:
+        t_s = np.where(t_s >= step.at_s, t_s + step.step_s, t_s)
     t_s = t_s[(t_s >= 0.0) & (t_s <= duration_s)]
     if t_s.size < 2:
         return t_s

@@ -70,7 +70,10 @@ def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float
     period = dt_s / (1.0 + drift_ppm * 1e-6)
     if offset_s > duration_s:
         return np.zeros(0)
-    return offset_s + np.arange(int(math.floor((duration_s - offset_s) / period + 1e-9)) + 1) * period
+    t = np.arange(int(math.floor((duration_s - offset_s) / period + 1e-9)) + 1, dtype=float)  # k exact in float
+    t *= period  # in place: the same products and sums as offset + k * period, without two more arrays
+    t += offset_s
+    return t
 
 
 class Network:
@@ -180,7 +183,7 @@ class Network:
         offset, drift = node_clock(scenario, i + 1)
         t = tick_times(offset, drift, self.dt_s, scenario.simulation.duration_s)
         t = faults.stepped_ticks(scenario, i + 1, t, scenario.simulation.duration_s)
-        t = t[t >= self.motion.timelines[i].present_from_s]
+        t = t[np.searchsorted(t, self.motion.timelines[i].present_from_s, side="left"):]  # increasing: a view
         if t.size == 0:
             steps = [(x.at_s, x.step_s) for x in scenario.faults.clock_step if x.node == i + 1]
             raise NodesimError(

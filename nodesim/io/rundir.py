@@ -215,13 +215,15 @@ def csv_text(columns: dict[str, np.ndarray], header: bool = True) -> str:
 
 
 def write_parquet(path: Path, data, compression: str = "snappy", **options) -> None:
-    """Write a DataFrame or equal-length columns (dict of arrays) as one Parquet file, atomically (``options``:
-    more of ``pyarrow.parquet.write_table``'s)."""
+    """Write a DataFrame, equal-length columns (dict of arrays) or a pyarrow Table as one Parquet file, atomically
+    (``options``: more of ``pyarrow.parquet.write_table``'s)."""
     import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    if isinstance(data, dict):
+    if isinstance(data, pa.Table):
+        table = data
+    elif isinstance(data, dict):
         table = pa.table({k: np.asarray(v) for k, v in data.items()})
     else:
         table = pa.Table.from_pandas(data, preserve_index=False)

@@ -251,13 +251,13 @@ def _each_chunk(T, K, dead_at, run: Callable) -> tuple[int, int]:
     DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    heap, counters, next_k = ev.first_events(T, K, dead_at)
+    queue, counters, next_k = ev.first_events(T, K, dead_at)
     size = min(ev.CHUNK_EVENTS, max(int(K.sum()), 1))  # the run's ticks: at least its events
     buffers = [(np.empty(size, np.int32), np.empty(size, np.int32)) for _ in range(2)]
 
     def make(i: int) -> tuple:
         nodes, ticks = buffers[i % 2]
-        count = ev.next_events(T, K, dead_at, heap, counters, next_k, nodes, ticks)
+        count = ev.next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks)
         return nodes[:count], ticks[:count]
 
     done = 0

@@ -173,18 +173,20 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, s
 
 
 def first_events(T, K, dead_at) -> tuple:
-    """SimPy's event queue at t = 0 (each node's first tick): (heap (times (N,), creation counters (N,), nodes (N,)),
-    counters [size, next creation counter], next tick (N,))."""
+    """SimPy's event queue at t = 0 (each node's first tick): (queue (heap times, creation counters, nodes; ring
+    times, creation counters, nodes: :func:`next_events`), counters [heap size, next creation counter, ring head,
+    ring size], next tick (N,)).  The first ticks go into the heap (a node inserted later waits there)."""
     N = T.shape[0]
-    heap = (np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64))
-    counters, next_k = np.zeros(2, dtype=np.int64), np.zeros(N, dtype=np.int64)
-    _first_events(T, K, dead_at, heap, counters)
-    return heap, counters, next_k
+    queue = (np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64),
+             np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64))
+    counters, next_k = np.zeros(4, dtype=np.int64), np.zeros(N, dtype=np.int64)
+    _first_events(T, K, dead_at, queue, counters)
+    return queue, counters, next_k
 
 
 @njit(cache=True, nogil=True)
-def _first_events(T, K, dead_at, heap, counters) -> None:
-    h_t, h_e, h_n = heap
+def _first_events(T, K, dead_at, queue, counters) -> None:
+    h_t, h_e, h_n = queue[0], queue[1], queue[2]
     size, eid = 0, 0
     for n in range(T.shape[0]):
         if K[n] > 0 and T[n, 0] < dead_at[n]:
@@ -194,25 +196,47 @@ def _first_events(T, K, dead_at, heap, counters) -> None:
 
 
 @njit(cache=True, nogil=True)
-def next_events(T, K, dead_at, heap, counters, next_k, nodes, ticks) -> int:
+def next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks) -> int:
     """The next events in SimPy's order (module docstring), resuming the queue of :func:`first_events`: (node, tick)
     into ``nodes``, ``ticks`` (int32: a run's nodes and ticks stay far below 2^31; a day at 1.9 Hz is 164 k ticks),
     as many as fit; returns how many (0: the run is over).  A node's next tick is queued at now + (T - now), as
-    ``env.timeout(t - env.now)`` schedules it."""
-    h_t, h_e, h_n = heap
-    size, eid = counters[0], counters[1]
+    ``env.timeout(t - env.now)`` schedules it.
+
+    The queue is a ring of events in (time, creation counter) order plus a heap of the rest; the next event is
+    the smaller head of the two.  A new event has the largest counter yet, so it goes at the end of the ring when
+    its time is not before the ring's last one (a node's next tick, one period on, nearly always is: every node
+    ticks at 1.9 Hz), else into the heap (a clock that gained on its neighbour, a node inserted later).  That is
+    the order of one heap of all of them (the same (time, counter) keys, merged), at O(1) an event instead of
+    O(log N): the 1000-tube day's event order took ~22 s with the heap alone."""
+    h_t, h_e, h_n, r_t, r_e, r_n = queue
+    N = r_t.shape[0]
+    size, eid, head, ring = counters[0], counters[1], counters[2], counters[3]
     e = 0
-    while size > 0 and e < nodes.shape[0]:
-        now, n, size = _pop(h_t, h_e, h_n, size)
+    while (size > 0 or ring > 0) and e < nodes.shape[0]:
+        if ring > 0 and (size == 0 or _less(r_t[head], r_e[head], h_t[0], h_e[0])):
+            now, n = r_t[head], r_n[head]
+            head = head + 1 if head + 1 < N else 0
+            ring -= 1
+        else:
+            now, n, size = _pop(h_t, h_e, h_n, size)
         k = next_k[n]
         nodes[e], ticks[e] = n, k
         e += 1
         k += 1
         next_k[n] = k
         if k < K[n] and T[n, k] < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, now + (T[n, k] - now), eid, n)
+            t = now + (T[n, k] - now)
+            last = head + ring - 1 if head + ring - 1 < N else head + ring - 1 - N
+            if ring == 0 or t >= r_t[last]:
+                tail = last + 1 if last + 1 < N else 0
+                if ring == 0:
+                    tail = head
+                r_t[tail], r_e[tail], r_n[tail] = t, eid, n
+                ring += 1
+            else:
+                size = _push(h_t, h_e, h_n, size, t, eid, n)
             eid += 1
-    counters[0], counters[1] = size, eid
+    counters[0], counters[1], counters[2], counters[3] = size, eid, head, ring
     return e
 
 

@@ -23,19 +23,25 @@ RUNNING = (ASK, TOP, RUN)  # the ticks the SimPy engine marks ``running``
 
 
 def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: float) -> np.ndarray:
-    """(K,) int8 codes of one node's ticks ``t_s`` (module docstring); ``scheduled`` (K,) the encoder schedule."""
+    """(K,) int8 codes of one node's ticks ``t_s`` (increasing; module docstring); ``scheduled`` (K,) the encoder
+    schedule.  Each time window [a, b) is the slice of ticks searchsorted gives (a node holds in every later
+    insertion: a mask over all its ticks per hold cost the drilling day ~12 s)."""
     t = np.asarray(t_s, dtype=float)
+
+    def ticks(a: float, b: float) -> slice:  # the ticks a <= t < b
+        return slice(*np.searchsorted(t, (a, b), side="left"))
+
     codes = np.full(t.size, RUN, dtype=np.int8)
-    top = (t >= timeline.present_from_s) & (t < timeline.top_until_s)
+    top = ticks(timeline.present_from_s, timeline.top_until_s)
     codes[top] = np.where(scheduled[top], ASK, TOP)
     for a, b in timeline.holds:
-        codes[(t >= a) & (t < b)] = HOLD
-    static = t < timeline.filter_start_s
-    codes[static] = STATIC
-    first = np.flatnonzero(~static)
-    if first.size:
-        codes[first[0]] = START
-    codes[(t >= dead_at_s) | (t < timeline.present_from_s)] = ABSENT
+        codes[ticks(a, b)] = HOLD
+    n_static = int(np.searchsorted(t, timeline.filter_start_s, side="left"))  # the ticks t < filter start
+    codes[:n_static] = STATIC
+    if n_static < t.size:
+        codes[n_static] = START
+    codes[ticks(-np.inf, timeline.present_from_s)] = ABSENT
+    codes[ticks(dead_at_s, np.inf)] = ABSENT
     return codes
 
 

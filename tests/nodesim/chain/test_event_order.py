@@ -1,0 +1,84 @@
+"""Phase 1's event order (:func:`nodesim.chain.compiled.events.next_events`: a ring plus a heap) is SimPy's: one
+priority queue of (time, creation counter), each node's next tick scheduled at now + (T - now) when it finishes
+the last.  The reference here is that queue written with :mod:`heapq`."""
+
+import heapq
+
+import numpy as np
+import pytest
+
+from nodesim.chain.compiled import events as ev
+from nodesim.chain.compiled import tick_plan as tp
+
+
+def _simpy_order(T, K, dead_at):
+    queue, eid = [], 0
+    for n in range(T.shape[0]):
+        if K[n] > 0 and T[n, 0] < dead_at[n]:
+            heapq.heappush(queue, (0.0 + (T[n, 0] - 0.0), eid, n, 0))
+            eid += 1
+    order = []
+    while queue:
+        now, _, n, k = heapq.heappop(queue)
+        order.append((n, k))
+        if k + 1 < K[n] and T[n, k + 1] < dead_at[n]:
+            heapq.heappush(queue, (now + (T[n, k + 1] - now), eid, n, k + 1))
+            eid += 1
+    return order
+
+
+def _compiled_order(T, K, dead_at, chunk):
+    queue, counters, next_k = ev.first_events(T, K, dead_at)
+    nodes, ticks = np.empty(chunk, np.int32), np.empty(chunk, np.int32)
+    order = []
+    while count := ev.next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks):
+        order += list(zip(nodes[:count].tolist(), ticks[:count].tolist()))
+    return order
+
+
+def _random_clocks(rng):
+    """Tick tables with what reorders nodes: offsets, drifts, clock steps, deaths, nodes that start late."""
+    N, K_max = int(rng.integers(1, 25)), int(rng.integers(1, 50))
+    T, K = np.full((N, K_max), np.nan), rng.integers(0, K_max + 1, N)
+    for n in range(N):
+        offset = rng.choice([0.0, rng.uniform(0, 3), rng.uniform(0, 30), float(rng.integers(0, 3))])
+        t = offset + np.arange(K[n]) * rng.choice([1.0, rng.uniform(0.9, 1.1)])
+        if K[n] > 3 and rng.random() < 0.2:
+            j = int(rng.integers(1, K[n]))
+            t[j:] += rng.uniform(-3, 3)
+            t = np.unique(t)
+            K[n] = t.size
+        T[n, :K[n]] = t
+    dead_at = np.where(rng.random(N) < 0.2, rng.uniform(0, 40, N), np.inf)
+    return T, K, dead_at
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_the_event_order_is_simpys(seed):
+    rng = np.random.default_rng(seed)
+    T, K, dead_at = _random_clocks(rng)
+    assert _compiled_order(T, K, dead_at, int(rng.choice([1, 4, 1000]))) == _simpy_order(T, K, dead_at)
+
+
+def test_node_codes_take_each_window_as_a_slice():
+    """:func:`tick_plan.node_codes` (windows by searchsorted) against the masks of its docstring's rules."""
+    class Timeline:
+        pass
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        t = np.unique(rng.uniform(0, 100, rng.integers(0, 40)))
+        tl = Timeline()
+        tl.present_from_s, tl.top_until_s, tl.filter_start_s = rng.uniform(-10, 110, 3)
+        tl.holds = [tuple(sorted(rng.uniform(-10, 110, 2))) for _ in range(rng.integers(0, 4))]
+        scheduled, dead_at = rng.random(t.size) < 0.5, rng.choice([np.inf, rng.uniform(-10, 110)])
+        want = np.full(t.size, tp.RUN, np.int8)
+        top = (t >= tl.present_from_s) & (t < tl.top_until_s)
+        want[top] = np.where(scheduled[top], tp.ASK, tp.TOP)
+        for a, b in tl.holds:
+            want[(t >= a) & (t < b)] = tp.HOLD
+        want[t < tl.filter_start_s] = tp.STATIC
+        if (t >= tl.filter_start_s).any():
+            want[np.flatnonzero(t >= tl.filter_start_s)[0]] = tp.START
+        want[(t >= dead_at) | (t < tl.present_from_s)] = tp.ABSENT
+        assert np.array_equal(tp.node_codes(t, tl, scheduled, dead_at), want)
