@@ -245,9 +245,25 @@ class SampleTruth:
         return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo]
 
     def tick_sums(self, first: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(z-gyro (K,), accelerometer (K, 3)) sums of the truth over each tick's samples first_k .. first_k + n_k - 1."""
-        a, b = first - self.j_lo, first + n - self.j_lo
-        return self._sum_gz[b] - self._sum_gz[a], np.ascontiguousarray(self._sum_a[b] - self._sum_a[a])
+        """(z-gyro (K,), accelerometer (K, 3)) sums of the truth over each tick's samples first_k .. first_k + n_k - 1
+        (:func:`_window_sums`: the differences of the prefix sums, the same subtraction as fancy indexing,
+        without its index and gathered temporaries)."""
+        K = first.size
+        out_gz, out_a = np.empty(K), np.empty((K, 3))
+        _window_sums(self._sum_gz, self._sum_a, np.ascontiguousarray(first, dtype=np.int64) - self.j_lo,
+                     np.ascontiguousarray(n, dtype=np.int64), out_gz, out_a)
+        return out_gz, out_a
+
+
+@njit(cache=True, nogil=True)
+def _window_sums(sum_gz, sum_a, a, n, out_gz, out_a) -> None:
+    """``out_gz[k] = sum_gz[a_k + n_k] - sum_gz[a_k]``, ``out_a[k] = sum_a[a_k + n_k] - sum_a[a_k]`` (per axis): the
+    sums over windows of :class:`SampleTruth`'s prefix sums (``a`` relative to its first sample, in range)."""
+    for k in range(a.size):
+        lo, hi = a[k], a[k] + n[k]
+        out_gz[k] = sum_gz[hi] - sum_gz[lo]
+        for i in range(3):
+            out_a[k, i] = sum_a[hi, i] - sum_a[lo, i]
 
 
 def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray,
