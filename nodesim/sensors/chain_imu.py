@@ -52,6 +52,8 @@ ACCEL_LSB_PER_G = {2: 16384.0, 4: 8192.0, 8: 4096.0, 16: 2048.0}
 """MPU6500 accelerometer sensitivity [LSB per g] by full-scale range [g] (MPU-6500 product specification 6.2)."""
 PER_SAMPLE_CHUNK_NORMALS = 1 << 23
 """Per-sample normals drawn at once (a range of realizations; 64 MB)."""
+TICK_SUM_BLOCK = 1024
+"""Ticks whose tick-sum normals :func:`_tick_sums` draws at once (2 x 24 kB: they stay in the cache until used)."""
 
 
 @dataclass(frozen=True)
@@ -387,37 +389,43 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma,
     once per tick).  The
     normals z, in order 3 k + i: realization r's "gyro" stream (``z_g``, PCG64 states) after the Gauss-Markov
     drive b_gm (:func:`_gauss_markov_draw`; its z axis into ``gm_z``) and its "accel" stream (``z_a``), advanced
-    in place.  Realizations ``r_first`` .. ``r_end - 1``.  A realization's normals are drawn first, both streams
-    in one tight loop (:func:`_two_streams_normals`), then used: ~20 % faster than drawing them inside the loop
-    below (the generator's code and the arithmetic then share registers and branches), the same numbers."""
+    in place.  Realizations ``r_first`` .. ``r_end - 1``.  A block of TICK_SUM_BLOCK ticks' normals is drawn
+    first, both streams in one tight loop (:func:`_two_streams_normals`), then used: ~20 % faster than drawing
+    them inside the loop below (the generator's code and the arithmetic then share registers and branches), the
+    same numbers; a block, not the realization's 6 K normals at once, so that they are still in the cache when
+    read."""
     K = gyro.shape[1]
     spread_g, spread_a = np.empty(K), np.empty(K)
     for k in range(K):
         spread_g[k], spread_a[k] = tc.draw_spread(n[k], sigma_g), tc.draw_spread(n[k], sigma_a)
     gm = np.empty((K, 3))
-    w_g, w_a = np.empty(3 * K), np.empty(3 * K)  # one realization's tick-sum normals, in stream order 3 k + i
+    B = max(1, min(K, TICK_SUM_BLOCK))
+    w_g, w_a = np.empty(3 * B), np.empty(3 * B)  # a block of ticks' normals, in stream order 3 k + i
     for r in range(r_first, r_end):
         g_hi_s, g_lo_s, g_inc_hi, g_inc_lo = z_g[r, 0], z_g[r, 1], z_g[r, 2], z_g[r, 3]
+        a_hi_s, a_lo_s, a_inc_hi, a_inc_lo = z_a[r, 0], z_a[r, 1], z_a[r, 2], z_a[r, 3]
         g_hi_s, g_lo_s = _gauss_markov_draw(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, gm_sigma, gm_drive, gm_phi, gm)
         gm_z[r] = gm[:, 2]
-        g_hi_s, g_lo_s, z_a[r, 0], z_a[r, 1] = _two_streams_normals(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, z_a[r, 0],
-                                                                    z_a[r, 1], z_a[r, 2], z_a[r, 3], w_g, w_a)
-        z_g[r, 0], z_g[r, 1] = g_hi_s, g_lo_s
-        for k in range(K):
-            ok_g, ok_a = True, True
-            for i in range(3):
-                t0, t1, t2 = T[r, i, 0], T[r, i, 1], T[r, i, 2]
-                g = gm[k, i]
-                wg, wa = w_g[3 * k + i], w_a[3 * k + i]
-                mean_g = gain * (t2 * usum_gz[k]) + (n[k] * (b_on + g) + n_after[k] * b_res)
-                mean_a = t0 * usum_a[k, 0] + t1 * usum_a[k, 1] + t2 * usum_a[k, 2]
-                gyro[r, k, i] = tc.draw_with_spread(mean_g, spread_g[k], wg)
-                accel[r, k, i] = tc.draw_with_spread(mean_a, spread_a[k], wa)
-                b_max = max(abs(b_on + g), abs(b_on + b_res + g))
-                ok_g = ok_g and tc.valid_one(abs(gain) * (abs(t2) * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
-                bound_a = abs(t0) * umax_a[k, 0] + abs(t1) * umax_a[k, 1] + abs(t2) * umax_a[k, 2]
-                ok_a = ok_a and tc.valid_one(bound_a, sigma_a, a_lo, a_hi)
-            g_sel[r, k], a_sel[r, k] = not ok_g, not ok_a
+        for k0 in range(0, K, B):
+            m = 3 * (min(k0 + B, K) - k0)
+            g_hi_s, g_lo_s, a_hi_s, a_lo_s = _two_streams_normals(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, a_hi_s, a_lo_s,
+                                                                  a_inc_hi, a_inc_lo, w_g[:m], w_a[:m])
+            for k in range(k0, k0 + m // 3):
+                ok_g, ok_a = True, True
+                for i in range(3):
+                    t0, t1, t2 = T[r, i, 0], T[r, i, 1], T[r, i, 2]
+                    g = gm[k, i]
+                    wg, wa = w_g[3 * (k - k0) + i], w_a[3 * (k - k0) + i]
+                    mean_g = gain * (t2 * usum_gz[k]) + (n[k] * (b_on + g) + n_after[k] * b_res)
+                    mean_a = t0 * usum_a[k, 0] + t1 * usum_a[k, 1] + t2 * usum_a[k, 2]
+                    gyro[r, k, i] = tc.draw_with_spread(mean_g, spread_g[k], wg)
+                    accel[r, k, i] = tc.draw_with_spread(mean_a, spread_a[k], wa)
+                    b_max = max(abs(b_on + g), abs(b_on + b_res + g))
+                    ok_g = ok_g and tc.valid_one(abs(gain) * (abs(t2) * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
+                    bound_a = abs(t0) * umax_a[k, 0] + abs(t1) * umax_a[k, 1] + abs(t2) * umax_a[k, 2]
+                    ok_a = ok_a and tc.valid_one(bound_a, sigma_a, a_lo, a_hi)
+                g_sel[r, k], a_sel[r, k] = not ok_g, not ok_a
+        z_g[r, 0], z_g[r, 1], z_a[r, 0], z_a[r, 1] = g_hi_s, g_lo_s, a_hi_s, a_lo_s
 
 
 @njit(cache=True, inline="always")
