@@ -308,7 +308,7 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
             zg, za = g_states.copy(), a_states.copy()  # a second draw reads the same normals
             threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, zg, za, gyro, accel, g_sel, a_sel,
                                                          gm_z, r0, r1), R)
-        draw(np.full(K, truth.umax[0][2]), np.ascontiguousarray(np.broadcast_to(truth.umax[1], (K, 3))))
+        draw(np.broadcast_to(truth.umax[0][2], (K,)), np.broadcast_to(truth.umax[1], (K, 3)))  # views, no copies
         if g_sel.any() or a_sel.any():
             draw(np.maximum.reduceat(np.abs(u_gz), starts),
                  np.ascontiguousarray(np.maximum.reduceat(np.abs(u_a), starts, axis=0)))
