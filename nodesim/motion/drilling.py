@@ -44,6 +44,8 @@ from nodesim.units import DEG
 
 TWIST_STEP_M = 0.05
 ATTITUDE_STEP_M = 0.01
+AZIMUTH_MARGIN_RAD = 1e-9
+"""Distance of the azimuth grid from 0 and 2 pi beyond which :meth:`Wellpath.attitude_along` needs no remainder."""
 
 
 @dataclass(frozen=True)
@@ -136,7 +138,17 @@ class Wellpath:
             return np.full_like(md, self.inclination_rad[0]), np.full_like(md, self.azimuth_rad[0])
         grid, inc, azi = self._attitude_grid
         md = np.asarray(md_m, dtype=float)
-        return np.interp(md, grid, inc), np.remainder(np.interp(md, grid, azi), 2.0 * math.pi)
+        a = np.interp(md, grid, azi)
+        return np.interp(md, grid, inc), (a if self._azimuth_grid_wrapped else np.remainder(a, 2.0 * math.pi))
+
+    @cached_property
+    def _azimuth_grid_wrapped(self) -> bool:
+        """Whether the unwrapped azimuth grid of :meth:`attitude_along` lies in [AZIMUTH_MARGIN_RAD, 2 pi -
+        AZIMUTH_MARGIN_RAD]: then every value interpolated on it is in (0, 2 pi) (a linear interpolation leaves
+        its neighbours' range by a few ulp at most), where np.remainder(a, 2 pi) returns a itself (fmod is exact,
+        no sign to fix), so the remainder, a third of the cost, can be skipped with the same bits."""
+        azi = self._attitude_grid[2]
+        return bool(azi.min() >= AZIMUTH_MARGIN_RAD and azi.max() <= 2.0 * math.pi - AZIMUTH_MARGIN_RAD)
 
     @cached_property
     def _twist_grid(self) -> tuple[np.ndarray, np.ndarray]:

@@ -52,6 +52,8 @@ ACCEL_LSB_PER_G = {2: 16384.0, 4: 8192.0, 8: 4096.0, 16: 2048.0}
 """MPU6500 accelerometer sensitivity [LSB per g] by full-scale range [g] (MPU-6500 product specification 6.2)."""
 PER_SAMPLE_CHUNK_NORMALS = 1 << 23
 """Per-sample normals drawn at once (a range of realizations; 64 MB)."""
+TICK_SUM_BLOCK = 1024
+"""Ticks whose tick-sum normals :func:`_tick_sums` draws at once (2 x 24 kB: they stay in the cache until used)."""
 
 
 @dataclass(frozen=True)
@@ -245,9 +247,35 @@ class SampleTruth:
         return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo]
 
     def tick_sums(self, first: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(z-gyro (K,), accelerometer (K, 3)) sums of the truth over each tick's samples first_k .. first_k + n_k - 1."""
-        a, b = first - self.j_lo, first + n - self.j_lo
-        return self._sum_gz[b] - self._sum_gz[a], np.ascontiguousarray(self._sum_a[b] - self._sum_a[a])
+        """(z-gyro (K,), accelerometer (K, 3)) sums of the truth over each tick's samples first_k .. first_k + n_k - 1
+        (:func:`_window_sums`: the differences of the prefix sums, the same subtraction as fancy indexing,
+        without its index and gathered temporaries)."""
+        K = first.size
+        out_gz, out_a = np.empty(K), np.empty((K, 3))
+        _window_sums(self._sum_gz, self._sum_a, np.ascontiguousarray(first, dtype=np.int64) - self.j_lo,
+                     np.ascontiguousarray(n, dtype=np.int64), out_gz, out_a)
+        return out_gz, out_a
+
+
+@njit(cache=True, nogil=True)
+def _window_sums(sum_gz, sum_a, a, n, out_gz, out_a) -> None:
+    """``out_gz[k] = sum_gz[a_k + n_k] - sum_gz[a_k]``, ``out_a[k] = sum_a[a_k + n_k] - sum_a[a_k]`` (per axis): the
+    sums over windows of :class:`SampleTruth`'s prefix sums (``a`` relative to its first sample, in range).  A
+    node's windows are consecutive (a_(k+1) = a_k + n_k): the prefix sums at a window's end are kept for the next
+    window's start, so each row of the large prefix arrays is read once, not twice (memory, not arithmetic, is
+    the cost here)."""
+    end = -1
+    g_hi, x_hi, y_hi, z_hi = 0.0, 0.0, 0.0, 0.0
+    for k in range(a.size):
+        lo, hi = a[k], a[k] + n[k]
+        if lo == end:
+            g_lo, x_lo, y_lo, z_lo = g_hi, x_hi, y_hi, z_hi
+        else:
+            g_lo, x_lo, y_lo, z_lo = sum_gz[lo], sum_a[lo, 0], sum_a[lo, 1], sum_a[lo, 2]
+        g_hi, x_hi, y_hi, z_hi = sum_gz[hi], sum_a[hi, 0], sum_a[hi, 1], sum_a[hi, 2]
+        out_gz[k] = g_hi - g_lo
+        out_a[k, 0], out_a[k, 1], out_a[k, 2] = x_hi - x_lo, y_hi - y_lo, z_hi - z_lo
+        end = hi
 
 
 def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray,
@@ -290,7 +318,7 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
             zg, za = g_states.copy(), a_states.copy()  # a second draw reads the same normals
             threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, zg, za, gyro, accel, g_sel, a_sel,
                                                          gm_z, r0, r1), R)
-        draw(np.full(K, truth.umax[0][2]), np.ascontiguousarray(np.broadcast_to(truth.umax[1], (K, 3))))
+        draw(np.broadcast_to(truth.umax[0][2], (K,)), np.broadcast_to(truth.umax[1], (K, 3)))  # views, no copies
         if g_sel.any() or a_sel.any():
             draw(np.maximum.reduceat(np.abs(u_gz), starts),
                  np.ascontiguousarray(np.maximum.reduceat(np.abs(u_a), starts, axis=0)))
@@ -371,37 +399,43 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma,
     once per tick).  The
     normals z, in order 3 k + i: realization r's "gyro" stream (``z_g``, PCG64 states) after the Gauss-Markov
     drive b_gm (:func:`_gauss_markov_draw`; its z axis into ``gm_z``) and its "accel" stream (``z_a``), advanced
-    in place.  Realizations ``r_first`` .. ``r_end - 1``.  A realization's normals are drawn first, both streams
-    in one tight loop (:func:`_two_streams_normals`), then used: ~20 % faster than drawing them inside the loop
-    below (the generator's code and the arithmetic then share registers and branches), the same numbers."""
+    in place.  Realizations ``r_first`` .. ``r_end - 1``.  A block of TICK_SUM_BLOCK ticks' normals is drawn
+    first, both streams in one tight loop (:func:`_two_streams_normals`), then used: ~20 % faster than drawing
+    them inside the loop below (the generator's code and the arithmetic then share registers and branches), the
+    same numbers; a block, not the realization's 6 K normals at once, so that they are still in the cache when
+    read."""
     K = gyro.shape[1]
     spread_g, spread_a = np.empty(K), np.empty(K)
     for k in range(K):
         spread_g[k], spread_a[k] = tc.draw_spread(n[k], sigma_g), tc.draw_spread(n[k], sigma_a)
     gm = np.empty((K, 3))
-    w_g, w_a = np.empty(3 * K), np.empty(3 * K)  # one realization's tick-sum normals, in stream order 3 k + i
+    B = max(1, min(K, TICK_SUM_BLOCK))
+    w_g, w_a = np.empty(3 * B), np.empty(3 * B)  # a block of ticks' normals, in stream order 3 k + i
     for r in range(r_first, r_end):
         g_hi_s, g_lo_s, g_inc_hi, g_inc_lo = z_g[r, 0], z_g[r, 1], z_g[r, 2], z_g[r, 3]
+        a_hi_s, a_lo_s, a_inc_hi, a_inc_lo = z_a[r, 0], z_a[r, 1], z_a[r, 2], z_a[r, 3]
         g_hi_s, g_lo_s = _gauss_markov_draw(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, gm_sigma, gm_drive, gm_phi, gm)
         gm_z[r] = gm[:, 2]
-        g_hi_s, g_lo_s, z_a[r, 0], z_a[r, 1] = _two_streams_normals(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, z_a[r, 0],
-                                                                    z_a[r, 1], z_a[r, 2], z_a[r, 3], w_g, w_a)
-        z_g[r, 0], z_g[r, 1] = g_hi_s, g_lo_s
-        for k in range(K):
-            ok_g, ok_a = True, True
-            for i in range(3):
-                t0, t1, t2 = T[r, i, 0], T[r, i, 1], T[r, i, 2]
-                g = gm[k, i]
-                wg, wa = w_g[3 * k + i], w_a[3 * k + i]
-                mean_g = gain * (t2 * usum_gz[k]) + (n[k] * (b_on + g) + n_after[k] * b_res)
-                mean_a = t0 * usum_a[k, 0] + t1 * usum_a[k, 1] + t2 * usum_a[k, 2]
-                gyro[r, k, i] = tc.draw_with_spread(mean_g, spread_g[k], wg)
-                accel[r, k, i] = tc.draw_with_spread(mean_a, spread_a[k], wa)
-                b_max = max(abs(b_on + g), abs(b_on + b_res + g))
-                ok_g = ok_g and tc.valid_one(abs(gain) * (abs(t2) * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
-                bound_a = abs(t0) * umax_a[k, 0] + abs(t1) * umax_a[k, 1] + abs(t2) * umax_a[k, 2]
-                ok_a = ok_a and tc.valid_one(bound_a, sigma_a, a_lo, a_hi)
-            g_sel[r, k], a_sel[r, k] = not ok_g, not ok_a
+        for k0 in range(0, K, B):
+            m = 3 * (min(k0 + B, K) - k0)
+            g_hi_s, g_lo_s, a_hi_s, a_lo_s = _two_streams_normals(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, a_hi_s, a_lo_s,
+                                                                  a_inc_hi, a_inc_lo, w_g[:m], w_a[:m])
+            for k in range(k0, k0 + m // 3):
+                ok_g, ok_a = True, True
+                for i in range(3):
+                    t0, t1, t2 = T[r, i, 0], T[r, i, 1], T[r, i, 2]
+                    g = gm[k, i]
+                    wg, wa = w_g[3 * (k - k0) + i], w_a[3 * (k - k0) + i]
+                    mean_g = gain * (t2 * usum_gz[k]) + (n[k] * (b_on + g) + n_after[k] * b_res)
+                    mean_a = t0 * usum_a[k, 0] + t1 * usum_a[k, 1] + t2 * usum_a[k, 2]
+                    gyro[r, k, i] = tc.draw_with_spread(mean_g, spread_g[k], wg)
+                    accel[r, k, i] = tc.draw_with_spread(mean_a, spread_a[k], wa)
+                    b_max = max(abs(b_on + g), abs(b_on + b_res + g))
+                    ok_g = ok_g and tc.valid_one(abs(gain) * (abs(t2) * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
+                    bound_a = abs(t0) * umax_a[k, 0] + abs(t1) * umax_a[k, 1] + abs(t2) * umax_a[k, 2]
+                    ok_a = ok_a and tc.valid_one(bound_a, sigma_a, a_lo, a_hi)
+                g_sel[r, k], a_sel[r, k] = not ok_g, not ok_a
+        z_g[r, 0], z_g[r, 1], z_a[r, 0], z_a[r, 1] = g_hi_s, g_lo_s, a_hi_s, a_lo_s
 
 
 @njit(cache=True, inline="always")
