@@ -169,6 +169,11 @@ class Network:
         if todo:
             self._pending.append((todo, self._signals_later(todo)))
 
+    def build_shared_truth(self) -> None:
+        """Compute the per-sample truth the nodes' readings share (:func:`nodesim.chain.sensing.shared_truth`, kept
+        for the run) now: the compiled engine has it built on another thread while its phase 1 runs."""
+        shared_truth(self.scenario, self.motion, self.dt_s)
+
     def _signals_later(self, todo: list[int]):
         scenario, motion, streams, dt = self.scenario, self.motion, self._streams, self.dt_s  # not self in the task:
         shared_truth(scenario, motion, dt)  # the shared per-sample truth, built once before the threads

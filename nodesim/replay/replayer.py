@@ -216,7 +216,7 @@ def references(node: NodeLog, ticks: np.ndarray, enc: np.ndarray, schedule: Upda
             raise NodesimError(f"node {node.node_id}: the log records no reference updates (column ref_update); "
                                f"impose a schedule: {SCHEDULE_HELP}")
         return rec, ref, var
-    mask = schedule.mask(ticks - t_log, 1.0 / setup.rate_hz)
+    mask = np.array(schedule.mask(ticks - t_log, 1.0 / setup.rate_hz))  # a writable copy (the mask may be a broadcast)
     if is_top:
         use_enc = mask & ~rec
         if np.any(use_enc & ~np.isfinite(enc)):

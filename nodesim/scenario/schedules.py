@@ -36,12 +36,11 @@ class UpdateSchedule:
     windows: tuple[tuple[float, float, float], ...] = ()
 
     def mask(self, tick_times_s: np.ndarray, tick_dt_s: float) -> np.ndarray:
-        """Boolean array: True where the tick at that time receives a reference update."""
+        """Boolean array: True where the tick at that time receives a reference update (read-only; "continuous" and
+        "none" a broadcast of one value, no memory: a day's 1000 nodes held 164 MB of them)."""
         t = np.asarray(tick_times_s, dtype=float)
-        if self.mode == "continuous":
-            return np.ones(t.shape, dtype=bool)
-        if self.mode == "none":
-            return np.zeros(t.shape, dtype=bool)
+        if self.mode in ("continuous", "none"):
+            return np.broadcast_to(np.bool_(self.mode == "continuous"), t.shape)
         if self.mode == "windowed":
             period = self.update_s + self.timeout_s
             return np.remainder(t, period) < self.update_s
