@@ -38,7 +38,7 @@ The njit kernels (:func:`crc16`, :func:`encode_frame`, :func:`decode_frame`, :fu
 :func:`decode_lanes`) take the layout array (``LAYOUTS[kind]``, int64 rows ``(offset, width, signed,
 policy)``) so a compiled caller can use them directly; :func:`encode` / :func:`decode` are the checked Python
 entry points over lanes ``values (R, n_fields)`` int64 <-> ``frames (R, n_bytes)`` uint8.  The chain's
-estimate frames go through :func:`encode_estimate` / :func:`decode_estimate` (one lane; the SimPy engine through
+estimate frames go through :func:`encode_estimate` / :func:`estimate_words` (one lane; the SimPy engine through
 :func:`encode_estimates` and :func:`decode_lanes`, the compiled engine from its own loops): ``seq`` is the sender's
 tick count since power-up (mod 2^16), ``t_read_us`` its tick time in microseconds.
 """
@@ -161,18 +161,24 @@ def encode_frame(values, layout, kind, out):
 
 
 @njit(cache=True, inline="always")
+def decode_field(frame, layout, i):
+    """Field ``i`` (layout row ``i``) of one frame, sign-extended for a signed field."""
+    off, width, signed = layout[i, 0], layout[i, 1], layout[i, 2]
+    u = np.int64(0)
+    for j in range(width):
+        u |= np.int64(frame[off + j]) << (8 * j)
+    bits = 8 * width
+    if signed and u >= (np.int64(1) << (bits - 1)):
+        u -= np.int64(1) << bits
+    return u
+
+
+@njit(cache=True, inline="always")
 def decode_frame(frame, layout, kind, values):
     """Read the fields of one frame into ``values`` (int64); True iff the CRC matches and the type byte is
     ``kind``.  The fields are decoded whatever the validity (sign-extended for a signed field)."""
     for i in range(layout.shape[0]):
-        off, width, signed = layout[i, 0], layout[i, 1], layout[i, 2]
-        u = np.int64(0)
-        for j in range(width):
-            u |= np.int64(frame[off + j]) << (8 * j)
-        bits = 8 * width
-        if signed and u >= (np.int64(1) << (bits - 1)):
-            u -= np.int64(1) << bits
-        values[i] = u
+        values[i] = decode_field(frame, layout, i)
     n = frame.shape[0] - 2
     got = np.int64(frame[n]) | (np.int64(frame[n + 1]) << 8)
     return got == crc16(frame, n) and np.int64(frame[0]) == kind
@@ -205,12 +211,12 @@ def encode_estimates(node, seq, t_read_us, yaw, p_yy, rate, bias, frames, values
     return worst
 
 
-@njit(cache=True)
-def decode_estimate(frame, values):
-    """(yaw, P_yy) words of an estimate frame through :func:`decode_frame` (``values`` (7,) int64, the work row)
-    and whether its CRC and type byte hold."""
-    ok = decode_frame(frame, ESTIMATE_LAYOUT, ESTIMATE, values)
-    return values[EST_YAW], values[EST_PYY], ok
+@njit(cache=True, _nrt=False)
+def estimate_words(frame):
+    """The (yaw, P_yy) words of an estimate frame (:func:`decode_field`), without the CRC and the other fields: the
+    compiled engine's receiver, whose CRC verdict phase 1 has already made (the frames it takes passed the check, or
+    are the errors it let through), ~10x cheaper than :func:`decode_frame` on the drilling day."""
+    return decode_field(frame, ESTIMATE_LAYOUT, EST_YAW), decode_field(frame, ESTIMATE_LAYOUT, EST_PYY)
 
 
 @njit(cache=True)

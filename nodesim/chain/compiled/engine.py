@@ -406,7 +406,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
         if n > 0:
-            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, *rx, words, r0, r1)
+            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, *rx, r0, r1)
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts,
                                   sig.samples, t, codes, k_end,
                                   node.applied, yaw_enc, enc_rate, back_us, offset, src_tick,
