@@ -80,12 +80,14 @@ def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: floa
     c[i + h] - c[i] = h, c the running count of the ticks inside the band, O(K) whatever h)."""
     t = node.t_s
     idx_after = np.flatnonzero((t >= after_s) & node.running)
-    inside = np.abs(node.bias_est_rad_s - node.true_bias_rad_s) <= tolerance_rad_s
+    # only the ticks after after_s: a drilling day's last rotation ends late, the band test of every tick cost
+    # three (R, K) temporaries a node
+    inside = np.abs(node.bias_est_rad_s[:, idx_after] - node.true_bias_rad_s[:, idx_after]) <= tolerance_rad_s
     dt = t[1] - t[0] if t.size > 1 else 1.0
     hold_ticks = max(int(math.ceil(hold_s / dt)), 1)
     out = np.full(inside.shape[0], np.nan)
     for r in range(inside.shape[0]):
-        ok = inside[r, idx_after]
+        ok = inside[r]
         if ok.size < hold_ticks:
             continue
         count = np.concatenate(([0], np.cumsum(ok, dtype=np.int64)))

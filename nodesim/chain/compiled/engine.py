@@ -438,8 +438,7 @@ class _FirmwareJob:
         def lanes(r0: int, r1: int) -> np.ndarray:
             counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
             if self.n > 0 and a < b:
-                frame_pass.receive_frames(self.offset, self.src_tick, a, b, self.up_frames, *self.rx, self.words,
-                                          r0, r1)
+                frame_pass.receive_frames(self.offset, self.src_tick, a, b, self.up_frames, *self.rx, r0, r1)
             if k0 < end:
                 filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts,
                                           sig.accel_counts, sig.samples, sig.t_s, self.codes, k0, end, node.applied,

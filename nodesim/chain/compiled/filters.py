@@ -17,8 +17,6 @@ its whole tick, :func:`firmware_model.node_firmware.node_tick`, in :func:`run_no
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
@@ -104,7 +102,7 @@ def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_
     ``accel_sums`` (R, K, 3): the tick's count sums (the 2-state firmware reads the z gyro's).  Records the yaw,
     P_yy, rate and bias raws (the words of the frame it sends, :func:`.frame_pass.send_frames`) and the floats the
     SimPy engine records.  ``inp``/``out``: (R, len(INPUTS)) / (R, len(OUTPUTS)) work rows, one per realization."""
-    fy, fyy, fb = fparams[fxk.W_YAW + 1], fparams[fxk.W_YY + 1], fparams[fxk.W_BIAS + 1]
+    sy, syy, sb = fxk.float_scales(fparams)  # the records' floats without an ldexp call per tick (~15 % of it)
     for r in range(r_first, r_end):
         st, x, o = states[r], inp[r], out[r]
         if k_start == 0 and six:
@@ -142,9 +140,9 @@ def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_
                 continue
             yaw_raw[r, k], var_raw[r, k] = st[fxk.I_YAW], st[fxk.I_PYY]
             rate_raw[r, k], bias_raw[r, k] = o[nf.OUT_RATE], st[fxk.I_BIAS]
-            yaw[r, k] = fxk.yaw_rad(st, fparams)
-            var[r, k] = fxk.yaw_variance_rad2(st, fparams)
-            bias[r, k] = fxk.bias_rad_s(st, fparams)
+            yaw[r, k] = fxk.yaw_rad_of(st[fxk.I_YAW], sy)
+            var[r, k] = fxk.yaw_variance_rad2_of(st[fxk.I_PYY], syy)
+            bias[r, k] = fxk.bias_rad_s_of(st[fxk.I_BIAS], sb)
             if o[nf.OUT_APPLIED] != 0:
-                ref_yaw[r, k] = math.ldexp(float(o[nf.OUT_REF]), -fy) * fxk.TURN_RAD
-                ref_var[r, k] = math.ldexp(float(o[nf.OUT_R]), -fyy) / fxk.RAD2_TO_DEG2
+                ref_yaw[r, k] = fxk.yaw_rad_of(o[nf.OUT_REF], sy)
+                ref_var[r, k] = fxk.yaw_variance_rad2_of(o[nf.OUT_R], syy)
