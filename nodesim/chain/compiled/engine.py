@@ -311,9 +311,8 @@ def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
         node.age[:, ask] = out.ask_age[:, rows]
 
 
-def _run_node(net, n: int, out, bits, codes: np.ndarray):
-    """Phase 2 for node index ``n`` (module docstring); writes the node's records, or, for the fixed firmware,
-    returns the :class:`_FirmwareJob` that will (None when nothing is left to run)."""
+def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
+    """Phase 2 for node index ``n`` (module docstring); writes the node's records."""
     from nodesim.chain.estimator import new_filter
 
     node, sig = net.nodes[n], net.nodes[n].sig
@@ -334,7 +333,8 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray):
         six_state_node.run(net, n, out, k_end, n_static, codes, _encoder_reads(net, n, t, codes, out))
         return
     if net.scenario.filter.implementation == "fixed":
-        return _FirmwareJob(net, n, out, k_end, n_static, codes, bits, at_tick, enc_yaw)
+        _run_node_firmware(net, n, out, k_end, n_static, codes, bits, at_tick, enc_yaw)
+        return
     bias0 = filters.sequential_sum(sig.gyro_rad_s, n_static) / n_static if n_static else 0.0
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
@@ -375,156 +375,56 @@ def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
     return tuple(frames)
 
 
-BLOCK_TICKS = 4096
-"""Phase 2 runs a fixed-firmware node's ticks in blocks of this many (:class:`_FirmwareJob`): node n's block waits
-only for the frames of nodes n - 1 and n - 2 that it reads, so two nodes run at once, each a block or more behind
-the node above it (:class:`_Wavefront`)."""
+def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, bits, at_tick: np.ndarray,
+                       enc_yaw: np.ndarray) -> None:
+    """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`); its filter
+    starts at tick ``n_static``; ``enc_yaw`` the encoder's yaw read at the ticks ``at_tick`` (the static window and
+    the start: :func:`_run_node` reads it once for the float records and the firmware)."""
+    node, sig = net.nodes[n], net.nodes[n].sig
+    t, R, fw = sig.t_s, net.R, node.fw
+    K = t.size
+    offset, src_tick = out.src_offset[:, n, :K], out.src_tick[:, n, :K]
+    # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
+    # node's requests, the reply read at the request's arrival; no other tick reads it
+    yaw_enc = np.zeros((R, K), np.int64)
+    yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(enc_yaw)
+    enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    ask, t_read, y, rate = _encoder_reads(net, n, t, codes, out)
+    if ask.size:
+        yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
+        enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
+    above = above_nodes(net, n)
+    node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    up_frames = _received_frames(net, n, above, offset, src_tick, bits)
+    inp, res = np.zeros((R, len(fw.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+    six = six_state_fixed_node.build(fw)  # (is 6-state, its build, initial lane): the fixed 6-state node's tick
+    words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
+    k_first = n_static + 1  # the first tick that may take a reference or send a frame
 
+    def run(r0: int, r1: int) -> np.ndarray:
+        counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
+        if n > 0:
+            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, *rx, r0, r1)
+        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts,
+                                  sig.samples, t, codes, k_end,
+                                  node.applied, yaw_enc, enc_rate, back_us, offset, src_tick,
+                                  tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
+                                  bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *six,
+                                  six_state.new_work())
+        return counts
 
-class _FirmwareJob:
-    """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`), its filter
-    starting at tick ``n_static``, as blocks of :data:`BLOCK_TICKS` ticks (:meth:`run`: receive the frames the
-    block takes, :func:`.frame_pass.receive_frames`; the firmware; encode the frames it sends,
-    :func:`.frame_pass.send_frames`): the lanes keep their state between blocks, so the blocks are the one loop
-    over the node's ticks cut in pieces, the same bits.  ``enc_yaw`` the encoder's yaw read at the ticks
-    ``at_tick`` (the static window and the start: :func:`_run_node` reads it once for the float records and the
-    firmware).  :meth:`done` adds its saturation counts to the node's and raises if a word did not fit its frame."""
-
-    def __init__(self, net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, bits, at_tick: np.ndarray,
-                 enc_yaw: np.ndarray):
-        node, sig = net.nodes[n], net.nodes[n].sig
-        t, R, fw = sig.t_s, net.R, node.fw
-        K = t.size
-        self.net, self.n, self.node, self.K, self.k_end, self.codes = net, n, node, K, k_end, codes
-        self.offset, self.src_tick = out.src_offset[:, n, :K], out.src_tick[:, n, :K]
-        # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
-        # node's requests, the reply read at the request's arrival; no other tick reads it
-        self.yaw_enc = np.zeros((R, K), np.int64)
-        self.yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(enc_yaw)
-        self.enc_rate, self.back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-        ask, t_read, y, rate = _encoder_reads(net, n, t, codes, out)
-        if ask.size:
-            self.yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
-            self.enc_rate[:, ask], self.back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
-        self.above = above_nodes(net, n)
-        node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-        self.rate_raw, self.bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-        self.rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-        self.bits = bits
-        self.inp, self.res = np.zeros((R, len(fw.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
-        self.six = six_state_fixed_node.build(fw)  # (is 6-state, its build, initial lane): the fixed 6-state tick
-        self.work6 = six_state.new_work()
-        self.words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
-        self.k_first = n_static + 1  # the first tick that may take a reference or send a frame
-        self.sends = n < net.n_nodes - 1  # the bottom node sends nothing
-        node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)  # filled block by block, read by the nodes below
-        self.up_frames = None
-        self.counts = np.zeros(len(fw.SITES), dtype=np.int64)
-        self.status = 0
-
-    def needs(self, k0: int, k1: int) -> tuple[int, int]:
-        """The ticks of nodes n - 1 and n - 2 whose frames ticks ``k0 .. k1 - 1`` read: (one past the last of each)."""
-        off, src = self.offset[:, k0:k1], self.src_tick[:, k0:k1]
-        return tuple(int(src[off == s].max(initial=-1)) + 1 for s in (1, 2))
-
-    def run(self, k0: int, k1: int) -> None:
-        """Ticks ``k0 .. k1 - 1`` (blocks in order; the frames they read already sent, :meth:`needs`)."""
-        node, fw, sig, R = self.node, self.node.fw, self.node.sig, self.net.R
-        if self.up_frames is None:  # the frames from above, with the flips of mac.bit_errors (whole: not blocked)
-            self.up_frames = _received_frames(self.net, self.n, self.above, self.offset, self.src_tick, self.bits)
-        a, b = max(self.k_first, k0), min(self.k_end, k1)  # the ticks that may receive or send a frame
-        end = min(self.k_end, k1)  # the firmware runs to the node's death
-
-        def lanes(r0: int, r1: int) -> np.ndarray:
-            counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
-            if self.n > 0 and a < b:
-                frame_pass.receive_frames(self.offset, self.src_tick, a, b, self.up_frames, *self.rx, r0, r1)
-            if k0 < end:
-                filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts,
-                                          sig.accel_counts, sig.samples, sig.t_s, self.codes, k0, end, node.applied,
-                                          self.yaw_enc, self.enc_rate, self.back_us, self.offset, self.src_tick,
-                                          tuple(x.t_s for x in self.above), *self.rx, self.inp, self.res,
-                                          node.yaw_raw, node.var_raw, self.rate_raw, self.bias_raw, node.yaw,
-                                          node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *self.six,
-                                          self.work6)
-            return counts
-
-        self.counts += sum(threads.map_chunks(lanes, R))
-        if self.sends and a < b:
-            self.status = min(self.status, *threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
-                node.node_id, node.first_tick, self.net.forward_every_tick, node.running, a, b, node.applied,
-                sig.t_s, node.yaw_raw, node.var_raw, self.rate_raw, self.bias_raw, node.frames, self.words, r0, r1),
-                R))
-
-    def run_all(self, progress=None) -> None:
-        """Every block in order; with ``progress`` (a :class:`_Wavefront`), each after the frames it reads."""
-        for k0 in range(0, self.K, BLOCK_TICKS):
-            k1 = min(self.K, k0 + BLOCK_TICKS)
-            if progress is not None:
-                progress.wait(self.n, self.needs(k0, k1))
-            self.run(k0, k1)
-            if progress is not None:
-                progress.sent(self.n, k1)
-
-    def done(self) -> None:
-        self.node.fw.counts += self.counts
-        if self.status < 0:
-            name, width = fr.FIELDS[fr.ESTIMATE][-self.status - 1][:2]
-            raise NodesimError(f"node {self.node.node_id}: its {name} word does not fit the estimate frame's "
-                               f"{8 * width}-bit field (firmware_model/frames.py); the build's format is wider than "
-                               "the frame")
-
-
-class _Wavefront:
-    """Phase 2's fixed-firmware nodes two at a time (Build item 6 of issue 20: a single realization cannot be split
-    over threads, but node n needs only the frames nodes n - 1 and n - 2 sent): :meth:`start` runs a node's
-    :class:`_FirmwareJob` on one of two worker threads, its blocks each waiting (:meth:`wait`) until the nodes
-    above have sent the frames it reads (:meth:`sent`).  At most two jobs run: :meth:`start` first waits for the
-    job two nodes up.  Each node's numbers are its own loop's whatever the timing (a block reads only frames
-    already complete), so results are the same bits as one node after the other (tested)."""
-
-    def __init__(self, n_nodes: int):
-        import threading
-        from concurrent.futures import ThreadPoolExecutor
-
-        self.pool = ThreadPoolExecutor(2, thread_name_prefix="nodesim-phase2")
-        self.cond = threading.Condition()
-        self.sent_to = [0] * n_nodes  # node n's frames of ticks < sent_to[n] are complete
-        self.jobs: dict = {}
-
-    def wait(self, n: int, needs: tuple[int, int]) -> None:
-        with self.cond:
-            self.cond.wait_for(lambda: all(n - s < 0 or self.sent_to[n - s] >= k for s, k in zip((1, 2), needs)))
-
-    def sent(self, n: int, k: int) -> None:
-        with self.cond:
-            self.sent_to[n] = k
-            self.cond.notify_all()
-
-    def start(self, n: int, job: "_FirmwareJob | None") -> None:
-        def run() -> None:
-            try:
-                if job is not None:
-                    job.run_all(self)
-            finally:
-                self.sent(n, 1 << 62)  # every frame it will send (or none: a failed job lets the others go on)
-        self.jobs[n] = self.pool.submit(run)
-
-    def join(self, n: int) -> None:
-        """Wait for node ``n``'s job (raising its error)."""
-        self.jobs.pop(n).result()
-
-    def close(self) -> None:
-        self.pool.shutdown(wait=True)
-
-
-def _wavefront(net) -> bool:
-    """Whether phase 2 runs two nodes at once (:class:`_Wavefront`): the fixed firmware, a run of too few
-    realizations to split over threads, two threads or more, no ``mac.bit_errors`` (whose flipped frames are
-    made from the sender's whole record)."""
-    s = net.scenario
-    return (s.filter.implementation == "fixed" and not s.mac.bit_errors and threads.thread_count() > 1
-            and len(threads.chunks(net.R)) == 1)
+    fw.counts += sum(threads.map_chunks(run, R))
+    node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
+    if n < net.n_nodes - 1:  # the bottom node sends nothing
+        status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
+            node.node_id, node.first_tick, net.forward_every_tick, node.running, k_first, k_end, node.applied, t,
+            node.yaw_raw, node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
+        if status < 0:
+            name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
+            raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
+                               f"field (firmware_model/frames.py); the build's format is wider than the frame")
 
 
 ATTACH_AHEAD = 2
@@ -572,47 +472,24 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     N = net.n_nodes
     surveys, summaries = list(net.ground), []
     streams = _NodeOutputs(net, on_node, surveys) if on_node is not None else None
-    wave = _Wavefront(N) if _wavefront(net) else None
-    jobs: dict = {}
-
-    def node_done(m: int) -> None:  # node m's records are complete: its outputs, in node order
-        if jobs.get(m) is not None:
-            jobs[m].done()
-        jobs.pop(m, None)
-        if streams is not None:
-            streams.submit(m)
-            if m >= 2:  # the nodes below m - 1 no longer read node m - 2's estimates
-                summaries.append(streams.finish(m - 2))
-        if progress is not None:
-            progress(0.5 + 0.5 * (m + 1) / N)
-
     try:
         for n in range(N):
             if n % ATTACH_AHEAD == 0:  # this batch of nodes' readings (if not yet) and the next's, on the workers
                 net.prepare_signals(range(n, min(N, n + ATTACH_AHEAD)))
                 net.prepare_signals(range(n + ATTACH_AHEAD, min(N, n + 2 * ATTACH_AHEAD)))
             net.attach_signals([n])
-            jobs[n] = _run_node(net, n, out, links.bits, plan[n, :K[n]])
-            if wave is None:
-                if jobs[n] is not None:
-                    jobs[n].run_all()
-                node_done(n)
-                continue
-            if n >= 2:  # at most two jobs at once: node n - 2's first
-                wave.join(n - 2)
-                node_done(n - 2)
-            wave.start(n, jobs[n])
-        if wave is not None:
-            for n in range(max(N - 2, 0), N):
-                wave.join(n)
-                node_done(n)
+            _run_node(net, n, out, links.bits, plan[n, :K[n]])
+            if streams is not None:
+                streams.submit(n)
+                if n >= 2:  # the nodes below n - 1 no longer read node n - 2's estimates
+                    summaries.append(streams.finish(n - 2))
+            if progress is not None:
+                progress(0.5 + 0.5 * (n + 1) / N)
         if streams is None:
             return net.result()
         for n in range(max(N - 2, 0), N):
             summaries.append(streams.finish(n))
     finally:
-        if wave is not None:
-            wave.close()
         if streams is not None:
             streams.close()
     return net.result(runs=(), surveys=surveys, summaries=tuple(summaries))

@@ -86,15 +86,13 @@ def sequential_sum(gyro, stop: int):
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_samples, t, codes, k_start, k_end,
-                      applied, enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, rx_yaw_raw, rx_var_raw,
+def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_samples, t, codes, k_end, applied,
+                      enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, rx_yaw_raw, rx_var_raw,
                       inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var, bias, ref_yaw, ref_var, r_first,
                       r_end, six, params6, lane0, work) -> None:
     """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`, or with ``six`` the 6-state node's
     :func:`firmware_model.six_state_firmware.node_tick`: ``params6``, ``lane0``, ``work`` its build, initial lane and
-    scratch) of one node over ticks ``k_start`` .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1`` (the
-    lanes start at tick 0 and keep their state in ``states`` between calls: ticks 0 .. K in blocks are the same
-    run as in one call), each tick as
+    scratch) of one node over ticks 0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``, each tick as
     ``codes`` says (:mod:`.tick_plan`): static window, the filter's start, holding, or predict and the reference
     phase 1 chose (the encoder reply read ``enc_back_us``
     after the tick for the top node; for the others ``rx_*_raw[r, k]``, the yaw and P_yy words decoded from the
@@ -105,11 +103,11 @@ def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_
     sy, syy, sb = fxk.float_scales(fparams)  # the records' floats without an ldexp call per tick (~15 % of it)
     for r in range(r_first, r_end):
         st, x, o = states[r], inp[r], out[r]
-        if k_start == 0 and six:
+        if six:
             n6.init_lane(st)
-        elif k_start == 0:
+        else:
             nf.init_lane(st)
-        for k in range(k_start, k_end):
+        for k in range(k_end):
             c = codes[k]
             x[nf.IN_GZ], x[nf.IN_N], x[nf.IN_REF] = gyro_sums[r, k, 2], n_samples[k], nf.NO_REF
             if c == tp.STATIC:

@@ -312,27 +312,3 @@ def test_compiled_engine_matches_the_event_engine_with_six_states(name):
 def test_six_state_runs_are_deterministic(name):
     s = Scenario().with_overrides(**SIX_STATE[name])
     assert_identical(simulate_chain(s), simulate_chain(s))
-
-
-@pytest.mark.parametrize("name", ["fixed, drilling, lossy hops", "fixed, dead node and fallback",
-                                  "fixed, every tick, extrapolated"])
-def test_phase_2_two_nodes_at_once_in_small_blocks_gives_the_same_run(monkeypatch, name):
-    """Phase 2 runs the fixed firmware's nodes two at a time (engine._Wavefront), each block of ticks after the
-    frames it reads: in blocks of 20 ticks, the even nodes' each made to take two milliseconds more (so that the
-    node below would overtake them: without the waits this fails), with two threads it gives the run of one thread,
-    node after node in one loop each (NODESIM_THREADS = 1)."""
-    import time
-
-    over = {**FIXED[name], "simulation.engine": "compiled"}
-    monkeypatch.setenv("NODESIM_THREADS", "1")
-    alone = simulate_chain(Scenario().with_overrides(**over))
-    monkeypatch.setenv("NODESIM_THREADS", "2")
-    monkeypatch.setattr(engine, "BLOCK_TICKS", 20)
-    run = engine._FirmwareJob.run
-    monkeypatch.setattr(engine._FirmwareJob, "run",
-                        lambda self, k0, k1: (time.sleep(2e-3 * (self.n % 2 == 0)), run(self, k0, k1)))
-    started = []
-    start = engine._Wavefront.start
-    monkeypatch.setattr(engine._Wavefront, "start", lambda self, n, job: (started.append(n), start(self, n, job)))
-    assert_identical(alone, simulate_chain(Scenario().with_overrides(**over)))
-    assert started == list(range(len(alone.nodes)))  # every node went through the wavefront
