@@ -176,7 +176,7 @@ class Network:
 
     def _signals_later(self, todo: list[int]):
         scenario, motion, streams, dt = self.scenario, self.motion, self._streams, self.dt_s  # not self in the task:
-        shared_truth(scenario, motion, dt)  # the shared per-sample truth, built once before the threads
+        self.build_shared_truth()  # built once before the threads (if not yet)
         nodes = self.nodes  # (the nodes refer to the network weakly)
         return threads.map_nodes_later(
             lambda j: node_signals(scenario, motion, streams, todo[j], nodes[todo[j]].t_s, dt), len(todo), self.R)

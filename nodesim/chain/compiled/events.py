@@ -226,11 +226,8 @@ def next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks) -> int:
         next_k[n] = k
         if k < K[n] and T[n, k] < dead_at[n]:
             t = now + (T[n, k] - now)
-            last = head + ring - 1 if head + ring - 1 < N else head + ring - 1 - N
-            if ring == 0 or t >= r_t[last]:
-                tail = last + 1 if last + 1 < N else 0
-                if ring == 0:
-                    tail = head
+            tail = head + ring if head + ring < N else head + ring - N  # the slot after the ring's last event
+            if ring == 0 or t >= r_t[tail - 1 if tail > 0 else N - 1]:
                 r_t[tail], r_e[tail], r_n[tail] = t, eid, n
                 ring += 1
             else:
