@@ -30,6 +30,7 @@
 
 import os
 import shutil
+import time
 from importlib import resources
 from pathlib import Path
 
@@ -270,6 +271,29 @@ def _process(args: list[str]) -> tuple[float, float, str]:
     return wall, peak[0] if peak else float("nan"), proc.stdout
 
 
+SKELETON_RUNS = 2
+"""The chain100 skeleton is timed this many times in :func:`drilling_day_1000`; its rate is taken from the fastest."""
+
+
+def _day_rate_vs_skeleton(day_wall_s: float, day_node_ticks: int) -> dict:
+    """``drilling_day_node_ticks_per_s_vs_skeleton`` as issue 20 defines it: the day's node-ticks per second (its
+    node-ticks over the wall time of its whole ``nodesim run`` process, outputs included) over the node-ticks per
+    second of the bare SimPy skeleton of ``chain100_1h_overhead_vs_skeleton`` (:func:`skeleton` of
+    ``scenarios/perf/chain100_1h.toml``: 100 nodes, one hour), timed here, in the same run, in this process (no
+    process start or imports on its side), the fastest of :data:`SKELETON_RUNS`.  NaN when the day did not run."""
+    perf = _scenario("perf", "chain100_1h.toml")
+    walls, ticks = [], 0
+    for _ in range(SKELETON_RUNS):
+        t = time.perf_counter()
+        ticks = skeleton(perf)
+        walls.append(time.perf_counter() - t)
+    skel_rate = ticks / min(walls)
+    day_rate = day_node_ticks / day_wall_s
+    return {"drilling_day_node_ticks_per_s": day_rate, "drilling_day_skeleton_node_ticks_per_s": skel_rate,
+            "drilling_day_skeleton_wall_s": min(walls), "drilling_day_skeleton_node_ticks": ticks,
+            "drilling_day_node_ticks_per_s_vs_skeleton": day_rate / skel_rate}
+
+
 HOUR_RUNS = 3
 """The day's first hour is timed this many times (its wall the median, ``_wall_min_s`` the min); the skeleton's
 hour (~2 min) once."""
@@ -279,7 +303,9 @@ def drilling_day_1000() -> dict:
     """``scenarios/perf/drilling_day_1000.toml`` (issue 20): the whole day, a whole ``nodesim run`` process with
     default outputs (streamed: wall, peak RSS), if the memory guard lets it run here, else its estimate; then its
     first hour and first two hours the same way, the hour against the bare SimPy skeleton process with the same
-    node-ticks (node-ticks per second on each side; the skeleton's whole day would take ~45 min), and
+    node-ticks (``drilling_day_first_1h_node_ticks_per_s_vs_skeleton``: the same work on each side; the skeleton's
+    whole day would take ~45 min); the day's node-ticks per second against the chain100 skeleton's
+    (:func:`_day_rate_vs_skeleton`, issue 20's ``drilling_day_node_ticks_per_s_vs_skeleton``); and
     ``drilling_10_tubes`` on both engines."""
     import json
     import tempfile
@@ -298,8 +324,9 @@ def drilling_day_1000() -> dict:
             out["drilling_day_1000_wall_s"] = float("nan")  # refused by the memory guard: not run, not extrapolated
         else:
             with resources.as_file(resources.files("scenarios") / "perf" / "drilling_day_1000.toml") as p:
-                wall, peak, _ = _process(["-c", PEAK, "run", str(p), "--out", str(tmp / "day"), "--quiet", "--json"])
+                wall, peak, text = _process(["-c", PEAK, "run", str(p), "--out", str(tmp / "day"), "--quiet", "--json"])
             out["drilling_day_1000_wall_s"], out["drilling_day_1000_peak_rss_gb"] = wall, peak / 1e9
+            out["drilling_day_1000_node_ticks"] = int(json.loads(text)["simpy_events"])  # run's own count
             shutil.rmtree(tmp / "day")  # its 4.4 GB table, flushed to disk before the next process is timed
             os.sync()
         for hours in DAY_HOURS:
@@ -320,9 +347,10 @@ def drilling_day_1000() -> dict:
                 assert int(skel_text.strip()) == ticks, "the skeleton ticks the same nodes at the same times"
                 out["drilling_day_first_1h_skeleton_wall_s"] = skel_wall
                 # same node-ticks on each side; ours the median of its runs
-                out["drilling_day_node_ticks_per_s_vs_skeleton"] = skel_wall / wall
+                out["drilling_day_first_1h_node_ticks_per_s_vs_skeleton"] = skel_wall / wall
         out["drilling_day_peak_rss_2h_over_1h"] = (out["drilling_day_first_2h_peak_rss_gb"]
                                                    / out["drilling_day_first_1h_peak_rss_gb"])
+    out.update(_day_rate_vs_skeleton(out["drilling_day_1000_wall_s"], out["drilling_day_1000_node_ticks"]))
     field = _scenario("field", "drilling_10_tubes.toml")
     for engine in ("compiled", "event"):
         s = field.with_overrides(**{"simulation.engine": engine})

@@ -89,7 +89,8 @@ def simulate_scenario(scenario: Scenario, scenario_sha256: str | None,
 
     require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     engine = choose_engine(scenario)
-    check_run_memory(scenario, engine, available_memory_bytes(), streamed=stream_to is not None)  # before any work
+    check_run_memory(scenario, engine, available_memory_bytes(), streamed=stream_to is not None,
+                     out_dir=stream_to)  # before any work: memory, and the disk a streamed run writes to
     started = datetime.now(timezone.utc)
     t0 = time.perf_counter()
     stream = table = None

@@ -27,6 +27,16 @@ with s_rt = 6 bytes (the records' int8 source offset, int32 source tick and bool
 and s_n, s_t, s_k and the window W (in nodes) fitted on 2026-12-03 to eleven streamed runs (10-20000 nodes, 60-7200 s,
 1-300 realizations, both implementations, the drilling day's first one and two hours and the whole day: 146.5 M
 node-ticks, 3.86 GB); every run within 10 % of the fit (the day 1.3 % under).
+Where those whole-run tables would take more than 64 MB they are kept on disk instead (:mod:`nodesim.chain.scratch`:
+a memory-mapped file whose pages the engine drops as it is done with them), and the N K_max terms give way to what
+of them is mapped at a time, ``SPILLED_RUN_TICK_BYTES`` per tick of the longest node:
+
+    peak ~ BASE_S + N s_n + K_max (s_k + s_spilled) + W R K_max b_rt
+
+(the drilling day 1.27 GB estimated against 1.17 GB measured, its first one and two hours 0.39 / 0.43 against
+0.41 / 0.45 GB).  Such a run also needs disk: the tables (:func:`nodesim.chain.scratch.whole_run_table_bytes`) in
+the temporary directory and its streamed timeseries table (``TABLE_ROW_BYTES`` a row) in the run directory;
+:func:`check_run_memory` refuses it at once when either file system has less free (:func:`disk_needs`).
 tests/nodesim/chain/test_memory_budget.py checks both estimates against the measured peak
 on other sizes (within a factor of 1.5, the goal).
 """
@@ -36,6 +46,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from nodesim.chain.scratch import scratch_directory, spills, whole_run_table_bytes
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
 
@@ -56,6 +67,10 @@ STREAMED_RUN_TICK_BYTES = 2727
 """A streamed run, per tick of its longest node (K_max): the shared per-sample sensor truth, the table writer's."""
 STREAMED_WINDOW_NODES = 3.63
 """A streamed run holds about this many nodes' full records (R K_max b_rt each) at its peak."""
+SPILLED_RUN_TICK_BYTES = 2000
+"""A streamed run whose whole-run tables are on disk (:mod:`nodesim.chain.scratch`), per tick of its longest node
+(K_max), in their place: what of them is mapped at a time (a chunk of phase 1, the rows phase 2 reads), fitted on
+the drilling day and its first one and two hours (2026-12-03)."""
 STREAMED_NODE_BYTES = 38_800
 """A streamed run, per node: its objects (node, links, channels), its summary and its keys in the run summary."""
 
@@ -101,8 +116,11 @@ def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False)
     if streamed and engine == "compiled":
         padded, k_max = len(ticks) * max(ticks), max(ticks)
         window = int(STREAMED_WINDOW_NODES * R * k_max * b_rt)
-        return RunMemory(STREAMED_BASE_BYTES + len(ticks) * STREAMED_NODE_BYTES,
-                         R * padded * STREAMED_REALIZATION_TICK_BYTES + window,
+        base = STREAMED_BASE_BYTES + len(ticks) * STREAMED_NODE_BYTES
+        if spills(len(ticks), k_max, R, scenario.mac.bit_errors):  # the whole-run tables on disk
+            return RunMemory(base, window, int(k_max * (STREAMED_RUN_TICK_BYTES + SPILLED_RUN_TICK_BYTES)),
+                             node_ticks, R)
+        return RunMemory(base, R * padded * STREAMED_REALIZATION_TICK_BYTES + window,
                          int(padded * STREAMED_TICK_BYTES + k_max * STREAMED_RUN_TICK_BYTES), node_ticks, R)
     out, n = scenario.output, scenario.chain.nodes
     kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
@@ -111,10 +129,19 @@ def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False)
 
 
 def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None,
-                     streamed: bool = False) -> RunMemory:
+                     streamed: bool = False, out_dir=None) -> RunMemory:
     """The estimate, or a :class:`NodesimError` (one line: the estimate, what is available, the keys that bring it
-    down, the largest part first) when it exceeds ``available_bytes`` (None: not known, not checked)."""
+    down, the largest part first) when it exceeds ``available_bytes`` (None: not known, not checked), or when the
+    disk it needs (:func:`disk_needs`: its whole-run tables on disk, its table streamed into ``out_dir``) exceeds
+    what is free there."""
     need = estimate_run_memory(scenario, engine, streamed)
+    for need_bytes, where, free in disk_needs(scenario, engine, streamed, out_dir):
+        if need_bytes > free:  # refused before any work, as for memory
+            raise NodesimError(
+                f"this run would need about {_gb(need.total_bytes)} GB of memory and {_gb(need_bytes)} GB of disk in "
+                f"{where} ({need.node_ticks:,} node-ticks x {need.realizations} realization"
+                f"{'' if need.realizations == 1 else 's'}), more than the {_gb(free)} GB free there: lower chain.nodes, "
+                f"simulation.duration_s" + (", output.timeseries" if engine == "compiled" and streamed else ""))
     if available_bytes is None or need.total_bytes <= available_bytes:
         return need
     held = scenario.output.timeseries != "none" and not (streamed and engine == "compiled")  # a table in memory
@@ -125,6 +152,49 @@ def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | Non
         f"this run would need about {_gb(need.total_bytes)} GB of memory ({need.node_ticks:,} node-ticks x "
         f"{need.realizations} realization{'' if need.realizations == 1 else 's'}), more than the {available_bytes / 1e9:.3g} GB available: lower "
         f"{', '.join(keys)}")
+
+
+TABLE_ROW_BYTES = {"parquet": 31, "csv": 210}
+"""Bytes on disk a row of the timeseries table takes, by ``output.format`` (the drilling day: 4.4 GB for 146.5 M rows
+of Parquet; ``chain100_1h``: 143 MB for 684 k rows of CSV)."""
+
+
+def _free_bytes(directory) -> tuple[float, int | None]:
+    """(free bytes, device) of the file system that holds ``directory`` (its nearest existing parent)."""
+    from pathlib import Path
+
+    path = Path(directory).resolve()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        st = os.statvfs(path)
+        return float(st.f_bavail * st.f_frsize), os.stat(path).st_dev
+    except OSError:
+        return float("inf"), None  # not known: not checked
+
+
+def disk_needs(scenario: Scenario, engine: str, streamed: bool, out_dir=None) -> list[tuple[int, str, float]]:
+    """(bytes, where, free bytes there) for each file system a streamed compiled run writes to before it ends: its
+    whole-run tables where they go to disk (:mod:`nodesim.chain.scratch`) and its timeseries table streamed into
+    ``out_dir`` (:data:`TABLE_ROW_BYTES` a row it keeps); summed where both are on one file system."""
+    if not (streamed and engine == "compiled"):
+        return []
+    ticks = node_tick_counts(scenario)
+    n, k_max, R, bits = len(ticks), max(ticks), scenario.simulation.realizations, scenario.mac.bit_errors
+    parts = []
+    if spills(n, k_max, R, bits):
+        parts.append((whole_run_table_bytes(n, k_max, R, bits), scratch_directory()))
+    out = scenario.output
+    if out_dir is not None and out.timeseries != "none":
+        kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
+        parts.append((kept * TABLE_ROW_BYTES[out.format], out_dir))  # realization 0's rows
+    needs: dict = {}
+    for size, where in parts:
+        free, device = _free_bytes(where)
+        key = device if device is not None else str(where)
+        old = needs.get(key)
+        needs[key] = (size + (old[0] if old else 0), str(where) if old is None else f"{old[1]} and {where}", free)
+    return list(needs.values())
 
 
 def _gb(n_bytes: float) -> str:

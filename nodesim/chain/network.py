@@ -28,7 +28,7 @@ from firmware_model import node_survey as survey
 from firmware_model.node_survey import fixed_surveys
 from nodesim import threads
 from firmware_model import frames as fr
-from nodesim.chain import faults
+from nodesim.chain import faults, scratch
 from nodesim.chain.bit_errors import FrameErrors
 from nodesim.chain.compiled.surveys import averaged_surveys
 from nodesim.chain.estimator import alignment_ticks, alignment_window_s, require_engine_filter
@@ -79,7 +79,7 @@ def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float
 class Network:
     """The SimPy world of one run (built by :func:`simulate_chain`)."""
 
-    def __init__(self, scenario: Scenario, attach_signals: bool = True):
+    def __init__(self, scenario: Scenario, attach_signals: bool = True, spill: bool = False):
         self.scenario = scenario
         self.env = simpy.Environment()
         self.events = 0
@@ -125,12 +125,19 @@ class Network:
         self.nodes: list[ChainNode] = []
         # every node's tick times as a row of one table (N, K_max), the node's t_s a view of its row (past its K
         # ticks the row is left unset and never read): the compiled engine's phase 1 reads the table as it is, and no
-        # second copy of the run's tick times (8 bytes a node-tick) is ever held; the sizes come from a first pass
+        # second copy of the run's tick times (8 bytes a node-tick) is ever held;
+        # the sizes come from a first pass.  ``spill`` (a streamed run on the compiled engine): the whole-run tables
+        # (this one, the tick plan, phase 1's records) go to disk where they are large (:mod:`nodesim.chain.scratch`)
         sizes = [self._tick_times(i).size for i in range(c.nodes)]
-        self.tick_table = np.empty((c.nodes, max(sizes)))
+        self.scratch = None
+        if spill and scratch.spills(c.nodes, max(sizes), R, mac.bit_errors):
+            self.scratch = scratch.ScratchArrays(scratch.scratch_directory())
+        self.tick_table = (np.empty if self.scratch is None else self.scratch.empty)((c.nodes, max(sizes)), float)
         for i, size in enumerate(sizes):
             t = self.tick_table[i, :size]
             t[:] = self._tick_times(i)
+            if self.scratch is not None and i % 64 == 63:
+                self.scratch.drop()  # the rows written so far leave memory
             node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)
             node.radio = RadioState(R, mac.queue_length)
@@ -470,5 +477,5 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     if scenario.simulation.realizations > 1:
         keep_freed_memory()  # a batch reuses the pages the last one freed (nodesim.chain.allocator)
     if choose_engine(scenario) == "compiled":
-        return simulate_compiled(Network(scenario, attach_signals=False), progress, on_node)
+        return simulate_compiled(Network(scenario, attach_signals=False, spill=on_node is not None), progress, on_node)
     return Network(scenario).run(progress, on_node=on_node)

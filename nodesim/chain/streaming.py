@@ -11,8 +11,10 @@ the surveys it sent (:func:`nodesim.chain.network.simulate_chain` ``on_node``). 
   - returns what the node leaves (:class:`~nodesim.chain.records.NodeSummary`): its metrics
     (:func:`nodesim.chain.metrics.node_metrics`, the accumulators that need its per-tick data) and its survey rows
     (:func:`nodesim.chain.run_tables.node_survey_rows`).
-The phase-1 records of the compiled engine (which estimate reaches which tick) and the shared sensor truth still
-scale with the run's node-ticks; the records of phase 2, the sensors' readings and the tables do not.
+The compiled engine's whole-run tables (tick times, tick plan, phase 1's records: which estimate reaches which tick)
+scale with the run's node-ticks; a large run keeps them on disk (:mod:`nodesim.chain.scratch`).  What still grows
+with the duration in memory is the shared per-sample sensor truth (~2.7 kB a tick) and the few nodes' whole-run
+arrays phase 2 and the outputs hold at a time (a node's readings, records and table rows).
 """
 
 from __future__ import annotations

@@ -133,7 +133,11 @@ class _Links:
                           net._streams.skip_bit_error_keys(R, i - N + 1))
             has_bytes[i] = True
         K = max(n.t_s.size for n in net.nodes)
-        err = (np.full((R, N, K) if on else (1, 1, 1), -1, np.int64), np.zeros((R, N, K) if on else (1, 1, 1)))
+        shape = (R, N, K) if on else (1, 1, 1)
+        if net.scratch is not None and on:  # each tick's try and BER (16 bytes a node-tick), on disk with the records
+            err = (net.scratch.full(shape, np.int64, -1), net.scratch.empty(shape, float))
+        else:
+            err = (np.full(shape, -1, np.int64), np.zeros(shape))
         counts = np.zeros((R, L), np.int64), np.zeros((R, L), np.int64)
         return (on, ber, per_pre, keys, has_bytes, bit_errors.zero_frame(fr.ESTIMATE), fr.ESTIMATE_LAYOUT,
                 fr.ESTIMATE, *counts, *err)
@@ -221,9 +225,14 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         bits = links.bits
         for a in bits[8:10]:
             a[:] = 0
-        bits[10][:] = -1
-        out = ev.Records(np.zeros((N, Kmax), dtype=bool), np.zeros((R, N, Kmax), dtype=bool),
-                         np.full((R, N, Kmax), -1, np.int8), np.full((R, N, Kmax), -1, np.int32),
+        if net.scratch is None:
+            bits[10][:] = -1
+            zeros, full = np.zeros, lambda shape, dtype, value: np.full(shape, value, dtype)
+        else:  # the whole-run tables on disk (nodesim.chain.scratch), written a slice at a time
+            net.scratch.fill(bits[10], -1)
+            zeros, full = net.scratch.empty, net.scratch.full
+        out = ev.Records(zeros((N, Kmax), bool), zeros((R, N, Kmax), bool),
+                         full((R, N, Kmax), np.int8, -1), full((R, N, Kmax), np.int32, -1),
                          np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
                          np.zeros((R, N), np.int64), ask_first)
         surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),
@@ -239,16 +248,16 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                                      out, cursor, r0, r1)
             return max(threads.map_chunks(lanes, R))
 
-        events, status = _each_chunk(T, K, dead_at, run)
+        events, status = _each_chunk(T, K, dead_at, run, None if net.scratch is None else net.scratch.drop)
         if status == ev.DONE:
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
 
 
-def _each_chunk(T, K, dead_at, run: Callable) -> tuple[int, int]:
+def _each_chunk(T, K, dead_at, run: Callable, after: Callable | None = None) -> tuple[int, int]:
     """``run(chunk, first event)`` over the run's events in chunks (:func:`.events.next_events`), the next chunk
-    made on a worker thread while ``run`` takes the last one; (events, the first status that is not DONE, else
-    DONE)."""
+    made on a worker thread while ``run`` takes the last one, ``after()`` (when given) after each; (events, the
+    first status that is not DONE, else DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
     queue, counters, next_k = ev.first_events(T, K, dead_at)
@@ -272,6 +281,8 @@ def _each_chunk(T, K, dead_at, run: Callable) -> tuple[int, int]:
             coming = pool.submit(make, i)  # into the other buffer, while this one runs
             status = run(chunk, done)
             done += chunk[0].size
+            if after is not None:
+                after()
             if status != ev.DONE:
                 coming.result()
                 return done, status
@@ -438,6 +449,11 @@ four: the drilling day peaked at 3.885 / 3.886 GB in 102.4 / 111.9 s with two, 3
 `nodesim run` each, interleaved, 2026-12-03)."""
 
 
+DROP_EVERY_NODES = 8
+"""Phase 2 drops the whole-run tables' pages (when they are on disk, :mod:`nodesim.chain.scratch`) every this many
+nodes: a node's rows of them are read once, as it is run (~2.6 MB for a node of the drilling day)."""
+
+
 def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_node: Callable | None = None):
     """Run the built network ``net`` on the compiled engine (module docstring) and return its ChainRun.
 
@@ -448,9 +464,11 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     read them (two nodes later: the fallback reads the next-but-one).  The ChainRun then has no ``nodes``."""
     K = np.array([n.t_s.size for n in net.nodes], dtype=np.int64)
     T = net.tick_table  # (N, K_max): node n's tick times T[n, :K[n]] (its t_s)
-    plan = tp.tick_plan(net.nodes, int(K.max()))
+    plan = tp.tick_plan(net.nodes, int(K.max()), net.scratch)
     survey_plan = _survey_plan(net, plan)
     links = _Links(net, bool(survey_plan[0]))
+    drop = net.scratch.drop if net.scratch is not None else lambda: None  # the whole-run tables' pages leave memory
+    drop()
     if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
         net.attach_signals(range(net.n_nodes))
         net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
@@ -461,6 +479,7 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
             truth = pool.submit(net.build_shared_truth)
             net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
             truth.result()
+    drop()
     net.engine = "compiled"
     links.store(stats)
     for i, node in enumerate(net.nodes):
@@ -483,6 +502,8 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
                 streams.submit(n)
                 if n >= 2:  # the nodes below n - 1 no longer read node n - 2's estimates
                     summaries.append(streams.finish(n - 2))
+            if n % DROP_EVERY_NODES == DROP_EVERY_NODES - 1:
+                drop()  # the rows of the nodes done (and those being run, read again as they go on)
             if progress is not None:
                 progress(0.5 + 0.5 * (n + 1) / N)
         if streams is None:

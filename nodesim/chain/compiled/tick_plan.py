@@ -45,10 +45,13 @@ def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: floa
     return codes
 
 
-def tick_plan(nodes, Kmax: int) -> np.ndarray:
-    """(N, Kmax) int8 codes of every node (a row per node, as its tick times), ``ABSENT`` past a node's end."""
-    plan = np.full((len(nodes), Kmax), ABSENT, dtype=np.int8)
+def tick_plan(nodes, Kmax: int, scratch=None) -> np.ndarray:
+    """(N, Kmax) int8 codes of every node (a row per node, as its tick times), ``ABSENT`` past a node's end; in
+    ``scratch`` (:class:`nodesim.chain.scratch.ScratchArrays`) when given, its rows dropped from memory as they go."""
+    plan = np.full((len(nodes), Kmax), ABSENT, dtype=np.int8) if scratch is None else scratch.empty((len(nodes), Kmax), np.int8)
     for n, node in enumerate(nodes):
         t = node.t_s
         plan[n, :t.size] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
+        if scratch is not None and n % 64 == 63:
+            scratch.drop()
     return plan

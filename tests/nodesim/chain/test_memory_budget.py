@@ -34,9 +34,10 @@ def _run(path: Path, out: Path) -> tuple[int, str, float]:
 
 
 def test_a_string_of_100000_nodes_is_refused_at_once_with_its_estimate(tmp_path):
-    """A day of 100000 nodes (1.6e10 node-ticks: ~1 TB even streamed).  (The default 620 s of 100000 nodes needs
-    ~13 GB streamed, which a 24 GB machine has: the guard lets it pass, and the scenario is then refused for its
-    clock stagger, node ~10000 on having no tick inside the run.)"""
+    """A day of 100000 nodes (1.6e10 node-ticks: ~1 TB in memory, or streamed ~5 GB of memory and ~770 GB of disk:
+    its whole-run tables on disk and its timeseries table).  (The default 620 s of 100000 nodes needs much less,
+    which a 24 GB machine has: the guard lets it pass, and the scenario is then refused for its clock stagger, node
+    ~10000 on having no tick inside the run.)"""
     toml = tmp_path / "huge.toml"
     toml.write_text('name = "huge"\n[simulation]\nduration_s = 86400.0\n[chain]\nnodes = 100000\n'
                     '[metrics]\nwindow_end_s = 86400.0\n')
@@ -106,17 +107,54 @@ def test_the_estimate_grows_with_every_size_key_and_names_the_largest_part_first
     assert check_run_memory(base, "compiled", 10**12).total_bytes == est
 
 
-def test_a_streamed_run_is_estimated_without_its_tables():
+@pytest.mark.parametrize("nodes", [100, 1000])  # its whole-run tables in memory (10 MB), on disk (110 MB)
+def test_a_streamed_run_is_estimated_without_its_tables(nodes):
     """Streamed (nodesim run on the compiled engine) the records and tables are not held: the estimate grows with the
     node-ticks and realizations, not with output.timeseries, and the guard does not name that key."""
-    base = Scenario.model_validate({"chain": {"nodes": 400}, "simulation": {"duration_s": 3600.0},
+    base = Scenario.model_validate({"chain": {"nodes": nodes}, "simulation": {"duration_s": 3600.0},
                                     "metrics": {"window_end_s": 3600.0}})
     streamed = estimate_run_memory(base, "compiled", streamed=True)
-    assert streamed.total_bytes < estimate_run_memory(base, "compiled").total_bytes / 3
-    for key, value in (("chain.nodes", 800), ("simulation.duration_s", 7200.0), ("simulation.realizations", 3)):
+    assert streamed.total_bytes < estimate_run_memory(base, "compiled").total_bytes / 2
+    for key, value in (("chain.nodes", 2 * nodes), ("simulation.duration_s", 7200.0), ("simulation.realizations", 3)):
         assert estimate_run_memory(base.with_overrides(**{key: value}), "compiled", True).total_bytes > \
             streamed.total_bytes, key
     assert estimate_run_memory(base.with_overrides(**{"output.timeseries": "none"}), "compiled", True) == streamed
     assert estimate_run_memory(base, "event", True) == estimate_run_memory(base, "event")  # holds its records anyway
     with pytest.raises(NodesimError, match=r"lower chain.nodes, simulation.duration_s$"):
         check_run_memory(base.with_overrides(**{"chain.nodes": 100000}), "compiled", 10**9, streamed=True)
+
+
+def test_the_estimate_of_a_run_with_its_tables_on_disk(tmp_path):
+    """The drilling day's first hour (793 nodes: 95 MB of whole-run tables, kept on disk, nodesim.chain.scratch):
+    the estimate counts what of them is mapped at a time, not the tables, within a factor of 1.5 of the peak."""
+    from nodesim.chain.scratch import spills
+
+    text = (ROOT / "scenarios" / "perf" / "drilling_day_1000.toml").read_text()
+    for a, b in (("nodes = 1000", "nodes = 793"), ("duration_s = 86400.0", "duration_s = 3600.0"),
+                 ("window_end_s = 86400.0", "window_end_s = 3600.0")):
+        text = text.replace(a, b)
+    path = tmp_path / "hour.toml"
+    path.write_text(text)
+    scenario = load_scenario(path)[0]
+    if not spills(793, 6841, 1, False):
+        pytest.skip("the temporary directory is a RAM file system: nothing is spilled")
+    code, err, peak = _run(path, tmp_path / "out")
+    assert code == 0, err
+    estimate = estimate_run_memory(scenario, "compiled", streamed=True).total_bytes
+    assert 1 / 1.5 < estimate / peak < 1.5, (estimate / 2**20, peak / 2**20)
+
+
+def test_a_run_is_refused_when_the_disk_it_writes_to_has_no_room(tmp_path, monkeypatch):
+    """Streamed, the drilling day writes ~2.6 GB of whole-run tables and a ~4.5 GB table: refused at once, one line,
+    naming both sizes' sum and where, when the disk has less free; not refused on the SimPy engine (not streamed)."""
+    from nodesim.chain import memory_budget
+
+    day = load_scenario(ROOT / "scenarios" / "perf" / "drilling_day_1000.toml")[0]
+    needs = memory_budget.disk_needs(day, "compiled", True, tmp_path)
+    assert len(needs) == 1 and needs[0][0] == pytest.approx(7.17e9, rel=0.01)  # /tmp and tmp_path: one file system
+    monkeypatch.setattr(memory_budget, "_free_bytes", lambda where: (5e9, 1))
+    with pytest.raises(NodesimError, match=r"7\.17 GB of disk in .* more than the 5 GB free there: lower chain.nodes"):
+        check_run_memory(day, "compiled", 10**12, streamed=True, out_dir=tmp_path)
+    assert check_run_memory(day, "compiled", 10**12, streamed=False, out_dir=tmp_path).node_ticks > 0
+    none = day.with_overrides(**{"output.timeseries": "none"})
+    assert memory_budget.disk_needs(none, "compiled", True, tmp_path)[0][0] == pytest.approx(2.63e9, rel=0.01)

@@ -1,0 +1,134 @@
+"""Arrays kept on disk, not in the process's memory: the whole-run tables of a streamed compiled run (issue 20).
+
+A streamed run holds a few nodes' records at a time, but the compiled engine's phase 1 needs tables over every
+node-tick of the run before phase 2 starts: the tick times (8 bytes a node-tick), the tick plan (1), the running
+flags (1) and phase 1's records (which estimate reaches which tick: 6 bytes a node-tick and realization).  Phase 1
+writes them in time order, a chunk of events at a time, and phase 2 reads them a node at a time; neither needs the
+rest in memory.  :class:`ScratchArrays` keeps such arrays in an unlinked temporary file (its blocks reserved at once
+with ``posix_fallocate``: a full disk is a clear error before the run, never a SIGBUS in it), memory-mapped shared,
+and :meth:`ScratchArrays.drop` takes their pages out of the process (``madvise(MADV_DONTNEED)``: a shared file
+mapping keeps its contents in the file, and the next read maps them again).  The engine drops them after each chunk
+of phase 1 and every few nodes of phase 2, so the run's peak resident memory no longer grows with its duration.  The
+values are the same wherever they are kept: the kernel only decides where the bytes live.
+
+The file goes to the temporary directory (``TMPDIR``); where that is a RAM file system (tmpfs), nothing is spilled
+(:func:`scratch_directory`): its pages would stay in memory, only no longer counted in the process's.
+"""
+
+from __future__ import annotations
+
+import math
+import mmap
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from nodesim.errors import NodesimError
+
+SPILL_MIN_BYTES = 64 * 2**20
+"""A streamed compiled run keeps its whole-run tables on disk when they would take more than this in memory."""
+
+FILL_BYTES = 64 * 2**20
+""":meth:`ScratchArrays.full` writes its value this many bytes at a time, dropping each slice's pages after it."""
+
+RAM_FILE_SYSTEMS = ("tmpfs", "ramfs", "devtmpfs")
+
+
+def _mount_type(path: Path) -> str | None:
+    """The file system type of the mount that holds ``path`` (Linux: /proc/mounts, longest matching mount point)."""
+    try:
+        with open("/proc/mounts", encoding="utf-8") as f:
+            mounts = [line.split()[1:3] for line in f if len(line.split()) >= 3]
+    except OSError:
+        return None
+    path = path.resolve()
+    best, kind = -1, None
+    for point, fstype in mounts:
+        point = point.replace("\\040", " ")
+        if (path == Path(point) or Path(point) in path.parents) and len(point) > best:
+            best, kind = len(point), fstype
+    return kind
+
+
+def scratch_directory() -> Path | None:
+    """Where a run's scratch arrays go: the temporary directory, unless it is a RAM file system (or madvise is not
+    there: not Linux), then None (nothing is spilled)."""
+    if not hasattr(mmap, "MADV_DONTNEED"):
+        return None
+    directory = Path(tempfile.gettempdir())
+    return None if _mount_type(directory) in RAM_FILE_SYSTEMS else directory
+
+
+def whole_run_table_bytes(n_nodes: int, k_max: int, realizations: int, bit_errors: bool) -> int:
+    """The bytes of a compiled run's whole-run tables (module docstring), padded to the longest node's ticks: tick
+    times, plan and running flags, phase 1's records per realization (with ``mac.bit_errors``, each tick's try and
+    BER too: 16 bytes more)."""
+    return n_nodes * k_max * (10 + realizations * (6 + (16 if bit_errors else 0)))
+
+
+def spills(n_nodes: int, k_max: int, realizations: int, bit_errors: bool) -> bool:
+    """Whether a streamed compiled run of this size keeps its whole-run tables on disk (:data:`SPILL_MIN_BYTES`,
+    :func:`scratch_directory`)."""
+    return (whole_run_table_bytes(n_nodes, k_max, realizations, bit_errors) > SPILL_MIN_BYTES
+            and scratch_directory() is not None)
+
+
+class ScratchArrays:
+    """Arrays in an unlinked file of ``directory`` (module docstring); each :meth:`empty` / :meth:`full` maps a
+    region of its own.  ``drop()`` takes every array's pages out of the process's resident memory."""
+
+    def __init__(self, directory: Path):
+        self.directory = Path(directory)
+        self._maps: list[mmap.mmap] = []
+        self.nbytes = 0
+
+    def empty(self, shape: tuple, dtype) -> np.ndarray:
+        """A new array of ``shape`` and ``dtype`` in the file, every byte 0 (the file's unwritten blocks)."""
+        dtype = np.dtype(dtype)
+        size = max(math.prod(shape) * dtype.itemsize, 1)
+        with tempfile.TemporaryFile(dir=self.directory, prefix="nodesim-scratch-") as f:
+            try:
+                os.posix_fallocate(f.fileno(), 0, size)
+            except OSError as err:
+                free = _free_bytes(self.directory)
+                raise NodesimError(
+                    f"the run's whole-run tables need {size / 1e9:.3g} GB more of scratch space in {self.directory} "
+                    f"(the temporary directory; TMPDIR chooses it) and it has {free / 1e9:.3g} GB free ({err.strerror}): "
+                    "free some, point TMPDIR elsewhere, or lower chain.nodes / simulation.duration_s") from None
+            m = mmap.mmap(f.fileno(), size)  # shared, read-write; the mapping outlives the (unlinked) file's descriptor
+        if hasattr(mmap, "MADV_RANDOM"):  # a read maps its page, not the large folio around it (up to ~1 MB on Linux 6)
+            m.madvise(mmap.MADV_RANDOM)
+        self._maps.append(m)
+        self.nbytes += size
+        return np.frombuffer(m, dtype=dtype, count=math.prod(shape)).reshape(shape)
+
+    def full(self, shape: tuple, dtype, value) -> np.ndarray:
+        """:meth:`empty` filled with ``value`` (:meth:`fill`)."""
+        a = self.empty(shape, dtype)
+        if value != 0:
+            self.fill(a, value)
+        return a
+
+    def fill(self, a: np.ndarray, value) -> None:
+        """Set every element of ``a`` (one of these arrays, contiguous) to ``value``, :data:`FILL_BYTES` at a time,
+        dropping the pages after each slice."""
+        flat = a.reshape(-1)  # a view (contiguous)
+        step = max(FILL_BYTES // max(a.itemsize, 1), 1)
+        for i in range(0, flat.size, step):
+            flat[i:i + step] = value
+            self.drop()
+
+    def drop(self) -> None:
+        """Take every array's pages out of the process (their values stay in the file: the next read maps them)."""
+        for m in self._maps:
+            m.madvise(mmap.MADV_DONTNEED)
+
+
+def _free_bytes(directory: Path) -> float:
+    try:
+        st = os.statvfs(directory)
+        return float(st.f_bavail * st.f_frsize)
+    except OSError:
+        return float("nan")

@@ -1,0 +1,129 @@
+"""The whole-run tables kept on disk (nodesim.chain.scratch, issue 20): their values survive dropping their pages, the
+pages leave the process's resident memory, a full disk is a clear error, a RAM file system is not used, and a streamed
+run with its tables on disk writes the same run directory as one that keeps them in memory."""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nodesim.api import load_run, simulate_scenario
+from nodesim.chain import scratch
+from nodesim.chain.network import Network
+from nodesim.errors import NodesimError
+from nodesim.scenario.schema import load_scenario
+
+REPO = Path(__file__).resolve().parents[3]
+FIELD = REPO / "scenarios" / "field" / "drilling_10_tubes.toml"
+LAB = REPO / "scenarios" / "lab" / "continuous.toml"
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def test_an_array_keeps_its_values_after_its_pages_are_dropped(tmp_path):
+    s = scratch.ScratchArrays(tmp_path)
+    a = s.empty((3, 5000), np.int32)
+    assert not a.any()  # the file's unwritten blocks read as zeros
+    b = s.full((2, 3, 7000), np.int8, -1)
+    assert (b == -1).all()
+    values = np.arange(a.size, dtype=np.int32).reshape(a.shape)
+    a[:] = values
+    s.drop()
+    assert np.array_equal(a, values) and (b == -1).all()
+    assert s.nbytes == a.nbytes + b.nbytes
+    assert not list(tmp_path.iterdir())  # the file is unlinked at once: nothing to clean up after a crash
+
+
+@pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="reads the resident set from /proc")
+def test_dropping_takes_the_pages_out_of_the_resident_memory(tmp_path):
+    s = scratch.ScratchArrays(tmp_path)
+    a = s.empty((64 * 2**20,), np.uint8)
+    before = _rss_bytes()
+    a[::4096] = 1  # touch every page
+    touched = _rss_bytes()
+    s.drop()
+    dropped = _rss_bytes()
+    assert touched - before > 48 * 2**20
+    assert touched - dropped > 48 * 2**20
+    assert int(a[::4096].sum()) == a.size // 4096  # and the values are read back from the file
+
+
+def test_full_writes_its_value_a_slice_at_a_time(tmp_path, monkeypatch):
+    monkeypatch.setattr(scratch, "FILL_BYTES", 4096)
+    s = scratch.ScratchArrays(tmp_path)
+    a = s.full((10, 1001), np.int64, -7)
+    assert (a == -7).all()
+
+
+def test_a_full_disk_is_a_clear_error_naming_the_space_and_tmpdir(tmp_path, monkeypatch):
+    def no_space(fd, offset, length):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "posix_fallocate", no_space)
+    with pytest.raises(NodesimError, match=r"need 0\.8 GB more of scratch space in .*TMPDIR.*No space left"):
+        scratch.ScratchArrays(tmp_path).empty((100_000, 8000), np.int8)
+
+
+def test_a_ram_file_system_is_not_used(monkeypatch):
+    monkeypatch.setattr(scratch, "_mount_type", lambda path: "tmpfs")
+    assert scratch.scratch_directory() is None
+    assert not scratch.spills(10_000, 100_000, 1, False)
+    monkeypatch.setattr(scratch, "_mount_type", lambda path: "ext4")
+    assert scratch.scratch_directory() is not None
+    assert scratch.spills(10_000, 100_000, 1, False)
+    assert not scratch.spills(10, 100, 1, False)  # small tables stay in memory
+
+
+def test_the_mount_of_a_path_is_found():
+    kind = scratch._mount_type(Path("/proc/self"))
+    assert kind in (None, "proc")
+
+
+def test_the_whole_run_tables_are_counted_per_node_tick_and_realization():
+    # tick times 8 + plan 1 + running 1 a node-tick; per realization the flag 1, source offset 1, source tick 4;
+    # with mac.bit_errors the tick's try (int64) and BER (float64)
+    assert scratch.whole_run_table_bytes(2, 100, 3, False) == 2 * 100 * (10 + 3 * 6)
+    assert scratch.whole_run_table_bytes(2, 100, 3, True) == 2 * 100 * (10 + 3 * 22)
+
+
+@pytest.mark.parametrize("path, overrides", [
+    (FIELD, {"chain.nodes": 6, "simulation.realizations": 2}),  # drilling, fixed firmware, surveys
+    (LAB, {"chain.nodes": 4, "simulation.duration_s": 200.0, "metrics.window_start_s": 100.0,
+           "metrics.window_end_s": 200.0, "simulation.realizations": 2, "radio.model": "channel",
+           "radio.shadowing_sigma_db": 0.0, "radio.soil.distance_m": 2.0, "radio.soil.vwc": 0.275, "mac.enabled": True,
+           "mac.bit_errors": True, "filter.implementation": "fixed"}),  # lossy hops with bit errors
+])
+def test_a_run_with_its_tables_on_disk_writes_the_same_directory(tmp_path, monkeypatch, path, overrides):
+    scenario = load_scenario(path)[0].with_overrides(**overrides)
+    made = []
+    real = scratch.ScratchArrays.__init__
+
+    def init(self, directory):
+        made.append(self)
+        real(self, directory)
+
+    monkeypatch.setattr(scratch.ScratchArrays, "__init__", init)
+    monkeypatch.setattr(scratch, "SPILL_MIN_BYTES", 0)
+    simulate_scenario(scenario, None, stream_to=tmp_path / "s1").save(tmp_path / "disk")
+    assert len(made) == 1 and made[0].nbytes > 0
+    monkeypatch.setattr(scratch, "SPILL_MIN_BYTES", 2**62)
+    simulate_scenario(scenario, None, stream_to=tmp_path / "s2").save(tmp_path / "memory")
+    assert len(made) == 1
+    x, y = load_run(tmp_path / "disk"), load_run(tmp_path / "memory")
+    x.summary.pop("timing"), y.summary.pop("timing")
+    assert x == y
+
+
+def test_only_a_streamed_run_spills(monkeypatch):
+    monkeypatch.setattr(scratch, "SPILL_MIN_BYTES", 0)
+    scenario = load_scenario(FIELD)[0].with_overrides(**{"chain.nodes": 3})
+    assert Network(scenario, attach_signals=False).scratch is None
+    net = Network(scenario, attach_signals=False, spill=True)
+    assert net.scratch is not None and net.tick_table.base is not None
