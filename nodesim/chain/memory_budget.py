@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 from nodesim.chain.scratch import scratch_directory, spills, whole_run_table_bytes
 from nodesim.errors import NodesimError
@@ -161,8 +162,6 @@ of Parquet; ``chain100_1h``: 143 MB for 684 k rows of CSV)."""
 
 def _free_bytes(directory) -> tuple[float, int | None]:
     """(free bytes, device) of the file system that holds ``directory`` (its nearest existing parent)."""
-    from pathlib import Path
-
     path = Path(directory).resolve()
     while not path.exists() and path != path.parent:
         path = path.parent
@@ -187,7 +186,8 @@ def disk_needs(scenario: Scenario, engine: str, streamed: bool, out_dir=None) ->
     out = scenario.output
     if out_dir is not None and out.timeseries != "none":
         kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
-        parts.append((kept * TABLE_ROW_BYTES[out.format], out_dir))  # realization 0's rows
+        # realization 0's rows, in out_dir (nodesim run: a private directory beside the run directory: named by its parent)
+        parts.append((kept * TABLE_ROW_BYTES[out.format], Path(out_dir).resolve().parent))
     needs: dict = {}
     for size, where in parts:
         free, device = _free_bytes(where)
