@@ -47,7 +47,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from nodesim.chain.scratch import scratch_directory, spills, whole_run_table_bytes
+from nodesim.chain.scratch import free_disk_bytes, scratch_directory, spills, whole_run_table_bytes
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
 
@@ -107,6 +107,12 @@ def node_tick_counts(scenario: Scenario) -> list[int]:
     return [int(max(duration - tl.present_from_s, 0.0) * rate) + 1 for tl in build_motion(scenario).timelines]
 
 
+def _kept_rows(scenario: Scenario, ticks: list[int]) -> int:
+    """The timeseries rows ``[output] timeseries`` keeps of a run whose nodes tick ``ticks`` times (node 1 first)."""
+    out, n = scenario.output, len(ticks)
+    return sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
+
+
 def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False) -> RunMemory:
     """The peak memory of running ``scenario`` on ``engine`` ('compiled' or 'event'), streamed (``nodesim run``; the
     SimPy engine streams only after its run, so it holds every record anyway) or not, module docstring."""
@@ -123,8 +129,7 @@ def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False)
                              node_ticks, R)
         return RunMemory(base, R * padded * STREAMED_REALIZATION_TICK_BYTES + window,
                          int(padded * STREAMED_TICK_BYTES + k_max * STREAMED_RUN_TICK_BYTES), node_ticks, R)
-    out, n = scenario.output, scenario.chain.nodes
-    kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
+    kept = _kept_rows(scenario, ticks)
     tables = kept * TICK_BYTES + (node_ticks * EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
     return RunMemory(BASE_BYTES, R * node_ticks * b_rt, tables, node_ticks, R)
 
@@ -160,18 +165,6 @@ TABLE_ROW_BYTES = {"parquet": 31, "csv": 210}
 of Parquet; ``chain100_1h``: 143 MB for 684 k rows of CSV)."""
 
 
-def _free_bytes(directory) -> tuple[float, int | None]:
-    """(free bytes, device) of the file system that holds ``directory`` (its nearest existing parent)."""
-    path = Path(directory).resolve()
-    while not path.exists() and path != path.parent:
-        path = path.parent
-    try:
-        st = os.statvfs(path)
-        return float(st.f_bavail * st.f_frsize), os.stat(path).st_dev
-    except OSError:
-        return float("inf"), None  # not known: not checked
-
-
 def disk_needs(scenario: Scenario, engine: str, streamed: bool, out_dir=None) -> list[tuple[int, str, float]]:
     """(bytes, where, free bytes there) for each file system a streamed compiled run writes to before it ends: its
     whole-run tables where they go to disk (:mod:`nodesim.chain.scratch`) and its timeseries table streamed into
@@ -185,12 +178,12 @@ def disk_needs(scenario: Scenario, engine: str, streamed: bool, out_dir=None) ->
         parts.append((whole_run_table_bytes(n, k_max, R, bits), scratch_directory()))
     out = scenario.output
     if out_dir is not None and out.timeseries != "none":
-        kept = sum((k + out.tick_step - 1) // out.tick_step for i, k in enumerate(ticks, 1) if out.keeps_node(i, n))
+        kept = _kept_rows(scenario, ticks)
         # realization 0's rows, in out_dir (nodesim run: a private directory beside the run directory: named by its parent)
         parts.append((kept * TABLE_ROW_BYTES[out.format], Path(out_dir).resolve().parent))
     needs: dict = {}
     for size, where in parts:
-        free, device = _free_bytes(where)
+        free, device = free_disk_bytes(where)
         key = device if device is not None else str(where)
         old = needs.get(key)
         needs[key] = (size + (old[0] if old else 0), str(where) if old is None else f"{old[1]} and {where}", free)

@@ -132,12 +132,12 @@ class Network:
         self.scratch = None
         if spill and scratch.spills(c.nodes, max(sizes), R, mac.bit_errors):
             self.scratch = scratch.ScratchArrays(scratch.scratch_directory())
-        self.tick_table = (np.empty if self.scratch is None else self.scratch.empty)((c.nodes, max(sizes)), float)
+        self.tick_table = scratch.zeros(self.scratch, (c.nodes, max(sizes)), float)
         for i, size in enumerate(sizes):
             t = self.tick_table[i, :size]
             t[:] = self._tick_times(i)
-            if self.scratch is not None and i % 64 == 63:
-                self.scratch.drop()  # the rows written so far leave memory
+            if i % scratch.DROP_EVERY_ROWS == scratch.DROP_EVERY_ROWS - 1:
+                scratch.drop(self.scratch)  # the rows written so far leave memory
             node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))
             node.dead_at_s = faults.death_time_s(scenario, i + 1)
             node.radio = RadioState(R, mac.queue_length)

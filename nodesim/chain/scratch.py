@@ -33,6 +33,9 @@ SPILL_MIN_BYTES = 64 * 2**20
 FILL_BYTES = 64 * 2**20
 """:meth:`ScratchArrays.full` writes its value this many bytes at a time, dropping each slice's pages after it."""
 
+DROP_EVERY_ROWS = 64
+"""A table built a node's row at a time (tick times, tick plan) drops its pages every this many rows."""
+
 RAM_FILE_SYSTEMS = ("tmpfs", "ramfs", "devtmpfs")
 
 
@@ -92,7 +95,7 @@ class ScratchArrays:
             try:
                 os.posix_fallocate(f.fileno(), 0, size)
             except OSError as err:
-                free = _free_bytes(self.directory)
+                free = free_disk_bytes(self.directory)[0]
                 raise NodesimError(
                     f"the run's whole-run tables need {size / 1e9:.3g} GB more of scratch space in {self.directory} "
                     f"(the temporary directory; TMPDIR chooses it) and it has {free / 1e9:.3g} GB free ({err.strerror}): "
@@ -126,9 +129,38 @@ class ScratchArrays:
             m.madvise(mmap.MADV_DONTNEED)
 
 
-def _free_bytes(directory: Path) -> float:
+def free_disk_bytes(directory) -> tuple[float, int | None]:
+    """(free bytes, device) of the file system that holds ``directory`` (its nearest existing parent); (inf, None)
+    where it cannot be read."""
+    path = Path(directory).resolve()
+    while not path.exists() and path != path.parent:
+        path = path.parent
     try:
-        st = os.statvfs(directory)
-        return float(st.f_bavail * st.f_frsize)
+        st = os.statvfs(path)
+        return float(st.f_bavail * st.f_frsize), os.stat(path).st_dev
     except OSError:
-        return float("nan")
+        return float("inf"), None
+
+
+def zeros(arrays: ScratchArrays | None, shape: tuple, dtype) -> np.ndarray:
+    """A zero array of ``shape``: in ``arrays`` (:meth:`ScratchArrays.empty`), or in memory where it is None."""
+    return np.zeros(shape, dtype) if arrays is None else arrays.empty(shape, dtype)
+
+
+def full(arrays: ScratchArrays | None, shape: tuple, dtype, value) -> np.ndarray:
+    """An array of ``shape`` filled with ``value``: in ``arrays`` (:meth:`ScratchArrays.full`), or in memory."""
+    return np.full(shape, value, dtype) if arrays is None else arrays.full(shape, dtype, value)
+
+
+def fill(arrays: ScratchArrays | None, a: np.ndarray, value) -> None:
+    """Set every element of ``a`` to ``value`` (:meth:`ScratchArrays.fill` a slice at a time where it is in them)."""
+    if arrays is None:
+        a[...] = value
+    else:
+        arrays.fill(a, value)
+
+
+def drop(arrays: ScratchArrays | None) -> None:
+    """:meth:`ScratchArrays.drop`; nothing where the tables are in memory."""
+    if arrays is not None:
+        arrays.drop()

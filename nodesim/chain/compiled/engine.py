@@ -37,6 +37,7 @@ from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from firmware_model import six_state_fixed as six_state
 from nodesim.chain import bit_errors
+from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.references import above_nodes, float_references
@@ -133,11 +134,9 @@ class _Links:
                           net._streams.skip_bit_error_keys(R, i - N + 1))
             has_bytes[i] = True
         K = max(n.t_s.size for n in net.nodes)
-        shape = (R, N, K) if on else (1, 1, 1)
-        if net.scratch is not None and on:  # each tick's try and BER (16 bytes a node-tick), on disk with the records
-            err = (net.scratch.full(shape, np.int64, -1), net.scratch.empty(shape, float))
-        else:
-            err = (np.full(shape, -1, np.int64), np.zeros(shape))
+        shape, arrays = ((R, N, K), net.scratch) if on else ((1, 1, 1), None)  # each tick's try and BER (16 bytes a
+        # node-tick): on disk with the records where they are; _resolve sets the tries to -1 before each attempt
+        err = (spill.zeros(arrays, shape, np.int64), spill.zeros(arrays, shape, float))
         counts = np.zeros((R, L), np.int64), np.zeros((R, L), np.int64)
         return (on, ber, per_pre, keys, has_bytes, bit_errors.zero_frame(fr.ESTIMATE), fr.ESTIMATE_LAYOUT,
                 fr.ESTIMATE, *counts, *err)
@@ -225,14 +224,10 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         bits = links.bits
         for a in bits[8:10]:
             a[:] = 0
-        if net.scratch is None:
-            bits[10][:] = -1
-            zeros, full = np.zeros, lambda shape, dtype, value: np.full(shape, value, dtype)
-        else:  # the whole-run tables on disk (nodesim.chain.scratch), written a slice at a time
-            net.scratch.fill(bits[10], -1)
-            zeros, full = net.scratch.empty, net.scratch.full
-        out = ev.Records(zeros((N, Kmax), bool), zeros((R, N, Kmax), bool),
-                         full((R, N, Kmax), np.int8, -1), full((R, N, Kmax), np.int32, -1),
+        spill.fill(net.scratch, bits[10], -1)  # the whole-run tables: on disk where they are large (net.scratch)
+        out = ev.Records(spill.zeros(net.scratch, (N, Kmax), bool), spill.zeros(net.scratch, (R, N, Kmax), bool),
+                         spill.full(net.scratch, (R, N, Kmax), np.int8, -1),
+                         spill.full(net.scratch, (R, N, Kmax), np.int32, -1),
                          np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
                          np.zeros((R, N), np.int64), ask_first)
         surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),
@@ -248,7 +243,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                                      out, cursor, r0, r1)
             return max(threads.map_chunks(lanes, R))
 
-        events, status = _each_chunk(T, K, dead_at, run, None if net.scratch is None else net.scratch.drop)
+        events, status = _each_chunk(T, K, dead_at, run, lambda: spill.drop(net.scratch))
         if status == ev.DONE:
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
@@ -467,8 +462,7 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     plan = tp.tick_plan(net.nodes, int(K.max()), net.scratch)
     survey_plan = _survey_plan(net, plan)
     links = _Links(net, bool(survey_plan[0]))
-    drop = net.scratch.drop if net.scratch is not None else lambda: None  # the whole-run tables' pages leave memory
-    drop()
+    spill.drop(net.scratch)  # the whole-run tables' pages read so far leave memory (where they are on disk)
     if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
         net.attach_signals(range(net.n_nodes))
         net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
@@ -479,7 +473,7 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
             truth = pool.submit(net.build_shared_truth)
             net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
             truth.result()
-    drop()
+    spill.drop(net.scratch)
     net.engine = "compiled"
     links.store(stats)
     for i, node in enumerate(net.nodes):
@@ -503,7 +497,7 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
                 if n >= 2:  # the nodes below n - 1 no longer read node n - 2's estimates
                     summaries.append(streams.finish(n - 2))
             if n % DROP_EVERY_NODES == DROP_EVERY_NODES - 1:
-                drop()  # the rows of the nodes done (and those being run, read again as they go on)
+                spill.drop(net.scratch)  # the rows of the nodes done (and those being run, read again as they go on)
             if progress is not None:
                 progress(0.5 + 0.5 * (n + 1) / N)
         if streams is None:

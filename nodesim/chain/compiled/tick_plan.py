@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from nodesim.chain import scratch as spill
+
 ABSENT, STATIC, START, HOLD, ASK, TOP, RUN = 0, 1, 2, 3, 4, 5, 6
 RUNNING = (ASK, TOP, RUN)  # the ticks the SimPy engine marks ``running``
 
@@ -45,13 +47,13 @@ def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: floa
     return codes
 
 
-def tick_plan(nodes, Kmax: int, scratch=None) -> np.ndarray:
-    """(N, Kmax) int8 codes of every node (a row per node, as its tick times), ``ABSENT`` past a node's end; in
-    ``scratch`` (:class:`nodesim.chain.scratch.ScratchArrays`) when given, its rows dropped from memory as they go."""
-    plan = np.full((len(nodes), Kmax), ABSENT, dtype=np.int8) if scratch is None else scratch.empty((len(nodes), Kmax), np.int8)
+def tick_plan(nodes, Kmax: int, arrays=None) -> np.ndarray:
+    """(N, Kmax) int8 codes of every node (a row per node, as its tick times), ``ABSENT`` (0) past a node's end; in
+    ``arrays`` (:class:`nodesim.chain.scratch.ScratchArrays`) when given, its rows dropped from memory as they go."""
+    plan = spill.zeros(arrays, (len(nodes), Kmax), np.int8)
     for n, node in enumerate(nodes):
         t = node.t_s
         plan[n, :t.size] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
-        if scratch is not None and n % 64 == 63:
-            scratch.drop()
+        if n % spill.DROP_EVERY_ROWS == spill.DROP_EVERY_ROWS - 1:
+            spill.drop(arrays)
     return plan

@@ -152,7 +152,7 @@ def test_a_run_is_refused_when_the_disk_it_writes_to_has_no_room(tmp_path, monke
     day = load_scenario(ROOT / "scenarios" / "perf" / "drilling_day_1000.toml")[0]
     needs = memory_budget.disk_needs(day, "compiled", True, tmp_path)
     assert len(needs) == 1 and needs[0][0] == pytest.approx(7.17e9, rel=0.01)  # /tmp and tmp_path: one file system
-    monkeypatch.setattr(memory_budget, "_free_bytes", lambda where: (5e9, 1))
+    monkeypatch.setattr(memory_budget, "free_disk_bytes", lambda where: (5e9, 1))
     with pytest.raises(NodesimError, match=r"7\.17 GB of disk in .* more than the 5 GB free there: lower chain.nodes"):
         check_run_memory(day, "compiled", 10**12, streamed=True, out_dir=tmp_path)
     assert check_run_memory(day, "compiled", 10**12, streamed=False, out_dir=tmp_path).node_ticks > 0
