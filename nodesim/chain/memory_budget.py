@@ -33,7 +33,7 @@ of them is mapped at a time, ``SPILLED_RUN_TICK_BYTES`` per tick of the longest 
 
     peak ~ BASE_S + N s_n + K_max (s_k + s_spilled) + W R K_max b_rt
 
-(the drilling day 1.27 GB estimated against 1.17 GB measured, its first one and two hours 0.39 / 0.43 against
+(the drilling day 1.27 GB estimated against 1.12-1.17 GB measured, its first one and two hours 0.39 / 0.43 against
 0.41 / 0.45 GB).  Such a run also needs disk: the tables (:func:`nodesim.chain.scratch.whole_run_table_bytes`) in
 the temporary directory and its streamed timeseries table (``TABLE_ROW_BYTES`` a row) in the run directory;
 :func:`check_run_memory` refuses it at once when either file system has less free (:func:`disk_needs`).
