@@ -33,6 +33,7 @@ from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
 from nodesim.chain.run_tables import TIMESERIES_COLUMNS, empty_timeseries, node_timeseries, node_survey_rows
 from nodesim.chain.yaw_plot import YawPlotData
 from nodesim.io.rundir import csv_text, file_mode
+from nodesim.io.write_behind import WriteBehind
 from nodesim.motion.timelines import ChainMotion
 from nodesim.scenario.schema import Scenario
 
@@ -71,7 +72,8 @@ class TimeseriesFile:
     temporary file in the same directory that :meth:`close` renames into place (:meth:`abort` deletes it: a failed
     run leaves no partial table).  Parquet blocks are encoded on a writer thread (pyarrow releases the GIL) while
     the run goes on, at most :data:`QUEUED_BLOCKS` waiting; with ``NODESIM_THREADS = 1`` in the calling thread.  The
-    file is the same either way: blocks are written in the order they come."""
+    file is the same either way: blocks are written in the order they come.  Its pages leave the page cache once
+    they are on disk (:mod:`nodesim.io.write_behind`): nothing reads them back during the run."""
 
     QUEUED_BLOCKS = 4
 
@@ -81,6 +83,7 @@ class TimeseriesFile:
         fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
         os.close(fd)
         self._tmp = Path(tmp)
+        self._behind = WriteBehind(self._tmp)
         self._writer = None
         self._csv = None
         self._queue: queue.Queue | None = None
@@ -106,6 +109,7 @@ class TimeseriesFile:
             if header:
                 self._csv = open(self._tmp, "w", newline="")
             self._csv.write(csv_text({k: columns[k] for k in TIMESERIES_COLUMNS}, header=header))
+            self._behind.advance()
         self.rows += len(columns["node"])
 
     def _write_parquet(self, block: dict[str, np.ndarray]) -> None:
@@ -115,6 +119,7 @@ class TimeseriesFile:
         if self._writer is None:
             self._writer = pq.ParquetWriter(self._tmp, table.schema, **PARQUET_OPTIONS)
         self._writer.write_table(table)
+        self._behind.advance()
 
     def _drain(self) -> None:
         while True:
@@ -151,6 +156,7 @@ class TimeseriesFile:
             self._csv.flush()
             os.fsync(self._csv.fileno())
             self._csv.close()
+        self._behind.close()
         os.chmod(self._tmp, file_mode())
         os.replace(self._tmp, self.path)
         return self.path
@@ -163,6 +169,7 @@ class TimeseriesFile:
                     handle.close()
             except Exception:  # noqa: BLE001 - the file is deleted anyway
                 pass
+        self._behind.close()
         if self._tmp.exists():
             self._tmp.unlink()
 
