@@ -400,7 +400,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
         yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
         enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
     above = above_nodes(net, n)
-    node.yaw_raw, node.var_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    # node.yaw_raw, node.var_raw and node.frames: the zero arrays :meth:`ChainNode.attach` made (not made again)
     rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     rx = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
     up_frames = _received_frames(net, n, above, offset, src_tick, bits)
@@ -422,7 +422,6 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
         return counts
 
     fw.counts += sum(threads.map_chunks(run, R))
-    node.frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
     if n < net.n_nodes - 1:  # the bottom node sends nothing
         status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
             node.node_id, node.first_tick, net.forward_every_tick, node.running, k_first, k_end, node.applied, t,
