@@ -17,9 +17,9 @@ calls are missing (not Linux, no glibc) it does nothing.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
-import sys
+
+from nodesim.io.libc import libc_function
 
 SYNC_FILE_RANGE_WAIT_BEFORE, SYNC_FILE_RANGE_WRITE, SYNC_FILE_RANGE_WAIT_AFTER = 1, 2, 4  # <fcntl.h>
 
@@ -28,16 +28,10 @@ MIN_STEP_BYTES = 4 * 2**20
 
 
 def _sync_file_range():
-    """glibc's ``sync_file_range`` through ctypes (Linux), or None."""
-    if not sys.platform.startswith("linux") or not hasattr(os, "posix_fadvise"):
+    """The C library's ``sync_file_range`` (Linux), or None (then :class:`WriteBehind` does nothing)."""
+    if not hasattr(os, "posix_fadvise"):
         return None
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-        call = libc.sync_file_range
-    except (OSError, AttributeError):
-        return None
-    call.argtypes, call.restype = [ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_uint], ctypes.c_int
-    return call
+    return libc_function("sync_file_range", [ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_uint])
 
 
 class WriteBehind:
