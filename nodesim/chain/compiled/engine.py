@@ -220,7 +220,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                  np.zeros((R, L), np.int64), np.zeros((R, L)), np.zeros((R, L), dtype=bool))
         inbox = (np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots), np.int64),
                  np.zeros((R, N, slots), np.int64), np.zeros((R, N, slots)), np.zeros((R, N), np.int64),
-                 np.full((R, N, slots), -1, np.int64), np.zeros((R, N, slots)))
+                 np.full((R, N, slots), -1, np.int64), np.zeros((R, N, slots)), np.zeros((R, N, slots)))
         bits = links.bits
         for a in bits[8:10]:
             a[:] = 0
@@ -238,31 +238,32 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         def run(chunk: tuple, e_first: int) -> int:  # one chunk in every realization, ranges on threads
             def lanes(r0: int, r1: int) -> int:
                 scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
-                return ev.run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, links.chan,
+                return ev.run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, links.chan,
                                      links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
                                      out, cursor, r0, r1)
             return max(threads.map_chunks(lanes, R))
 
-        events, status = _each_chunk(T, K, dead_at, run, lambda: spill.drop(net.scratch))
+        events, status = _each_chunk(T, K, dead_at, plan, out.running, run, lambda: spill.drop(net.scratch))
         if status == ev.DONE:
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
 
 
-def _each_chunk(T, K, dead_at, run: Callable, after: Callable | None = None) -> tuple[int, int]:
-    """``run(chunk, first event)`` over the run's events in chunks (:func:`.events.next_events`), the next chunk
-    made on a worker thread while ``run`` takes the last one, ``after()`` (when given) after each; (events, the
-    first status that is not DONE, else DONE)."""
+def _each_chunk(T, K, dead_at, plan, running, run: Callable, after: Callable | None = None) -> tuple[int, int]:
+    """``run(chunk, first event)`` over the run's events in chunks (:func:`.events.next_events`: nodes, ticks, tick
+    times, plan codes; it also marks ``running``), the next chunk made on a worker thread while ``run`` takes the
+    last one, ``after()`` (when given) after each; (events, the first status that is not DONE, else DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
     queue, counters, next_k = ev.first_events(T, K, dead_at)
     size = min(ev.CHUNK_EVENTS, max(int(K.sum()), 1))  # the run's ticks: at least its events
-    buffers = [(np.empty(size, np.int32), np.empty(size, np.int32)) for _ in range(2)]
+    buffers = [(np.empty(size, np.int32), np.empty(size, np.int32), np.empty(size), np.empty(size, np.int8))
+               for _ in range(2)]
 
     def make(i: int) -> tuple:
-        nodes, ticks = buffers[i % 2]
-        count = ev.next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks)
-        return nodes[:count], ticks[:count]
+        chunk = buffers[i % 2]
+        count = ev.next_events(T, K, dead_at, plan, running, queue, counters, next_k, *chunk)
+        return tuple(a[:count] for a in chunk)
 
     done = 0
     with ThreadPoolExecutor(1, thread_name_prefix="nodesim-events") as pool:

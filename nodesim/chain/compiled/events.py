@@ -107,13 +107,13 @@ def _pop(h_t, h_e, h_n, size):
 
 
 @njit(cache=True)
-def _deliver(inbox, r, receiver, seq, sender, tick, arrival, c_try, c_ber) -> bool:
-    i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber = inbox
+def _deliver(inbox, r, receiver, seq, sender, tick, t_read, arrival, c_try, c_ber) -> bool:
+    i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber, i_read = inbox
     c = i_count[r, receiver]
     if c == i_seq.shape[2]:
         return False
     i_seq[r, receiver, c], i_src[r, receiver, c], i_tick[r, receiver, c] = seq, sender, tick
-    i_arr[r, receiver, c] = arrival
+    i_arr[r, receiver, c], i_read[r, receiver, c] = arrival, t_read
     i_try[r, receiver, c], i_ber[r, receiver, c] = c_try, c_ber
     i_count[r, receiver] = c + 1
     return True
@@ -121,20 +121,22 @@ def _deliver(inbox, r, receiver, seq, sender, tick, arrival, c_try, c_ber) -> bo
 
 @njit(cache=True)
 def _swap(inbox, r, n, i, j) -> None:
-    i_seq, i_src, i_tick, i_arr, _, i_try, i_ber = inbox
+    i_seq, i_src, i_tick, i_arr, _, i_try, i_ber, i_read = inbox
     i_seq[r, n, i], i_seq[r, n, j] = i_seq[r, n, j], i_seq[r, n, i]
     i_src[r, n, i], i_src[r, n, j] = i_src[r, n, j], i_src[r, n, i]
     i_tick[r, n, i], i_tick[r, n, j] = i_tick[r, n, j], i_tick[r, n, i]
     i_arr[r, n, i], i_arr[r, n, j] = i_arr[r, n, j], i_arr[r, n, i]
     i_try[r, n, i], i_try[r, n, j] = i_try[r, n, j], i_try[r, n, i]
     i_ber[r, n, i], i_ber[r, n, j] = i_ber[r, n, j], i_ber[r, n, i]
+    i_read[r, n, i], i_read[r, n, j] = i_read[r, n, j], i_read[r, n, i]
 
 
 @njit(cache=True, inline="always")
-def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick, bits) -> bool:
+def _select(r, n, k, t, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick, bits) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
-    True if a fresh packet was taken (with ``mac.bit_errors``, its corrupting try, if any, is recorded)."""
-    i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber = inbox
+    True if a fresh packet was taken (with ``mac.bit_errors``, its corrupting try, if any, is recorded).  A
+    packet's age is t - T[sender, its tick], that tick time carried in the inbox (``i_read``)."""
+    i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber, i_read = inbox
     c = i_count[r, n]
     m = 0
     for i in range(c):  # the arrived ones to the front, newest first (insertion sort; an inbox holds a few)
@@ -153,8 +155,7 @@ def _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, s
         newer = i_seq[r, n, j] > last_seq[r, n]
         if not newer:
             dup[r, n] += 1
-        t_read = T[i_src[r, n, j], i_tick[r, n, j]]
-        if t - t_read > max_age_s:
+        if t - i_read[r, n, j] > max_age_s:
             if newer and not have:
                 stale[r, n] += 1
             continue
@@ -196,11 +197,17 @@ def _first_events(T, K, dead_at, queue, counters) -> None:
 
 
 @njit(cache=True, nogil=True)
-def next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks) -> int:
+def next_events(T, K, dead_at, plan, running, queue, counters, next_k, nodes, ticks, times, codes) -> int:
     """The next events in SimPy's order (module docstring), resuming the queue of :func:`first_events`: (node, tick)
     into ``nodes``, ``ticks`` (int32: a run's nodes and ticks stay far below 2^31; a day at 1.9 Hz is 164 k ticks),
-    as many as fit; returns how many (0: the run is over).  A node's next tick is queued at now + (T - now), as
-    ``env.timeout(t - env.now)`` schedules it.
+    the tick's time T[n, k] into ``times`` and its code plan[n, k] into ``codes``, as many as fit; returns how many
+    (0: the run is over).  ``running[n, k]`` (the same in every realization) is set for each running tick (``RUNNING``
+    codes).  A node's next tick is queued at now + (T - now), as ``env.timeout(t - env.now)`` schedules it.
+
+    The chunk carries each event's time and code, and ``running`` is written here, because this runs on its own
+    thread beside :func:`run_events`: T, plan and running are (N, K) tables, node-major, and events come in time
+    order, one node after another, so each of those reads and writes lands on another node's row (a cache and TLB
+    miss each; T[n, k] alone was ~30 % of phase 1 on the drilling day when :func:`run_events` read it).
 
     The queue is a ring of events in (time, creation counter) order plus a heap of the rest; the next event is
     the smaller head of the two.  A new event has the largest counter yet, so it goes at the end of the ring when
@@ -220,7 +227,11 @@ def next_events(T, K, dead_at, queue, counters, next_k, nodes, ticks) -> int:
         else:
             now, n, size = _pop(h_t, h_e, h_n, size)
         k = next_k[n]
-        nodes[e], ticks[e] = n, k
+        nodes[e], ticks[e], times[e] = n, k, T[n, k]
+        code = plan[n, k]
+        codes[e] = code
+        if code == ASK or code == TOP or code == RUN:
+            running[n, k] = True
         e += 1
         k += 1
         next_k[n] = k
@@ -252,31 +263,29 @@ def forwarded_ages(t, src_offset, src_tick, t_above, t_two_above, age) -> None:
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac,
+def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac,
                bits, scratch, inbox, last_seq, streak, out, cursor, r_first, r_end):
-    """Run the events ``chunk`` = (nodes, ticks) from :func:`next_events`, the run's events ``e_first`` on, in
-    realizations ``r_first`` .. ``r_end - 1`` (module docstring; disjoint ranges may run on parallel threads).
-    ``T`` (N, K): the nodes' tick times; ``cursor`` = (next survey (R, N), next encoder request (R, N)) of each node,
-    kept from chunk to chunk (start: ``surveys`` first, ``out.ask_first``).  ``plan``
-    (N, K): each tick's code (:mod:`.tick_plan`); ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
+    """Run the events ``chunk`` = (nodes, ticks, times, codes) from :func:`next_events` (each event's tick time and
+    plan code, :mod:`.tick_plan`, come with it), the run's events ``e_first`` on, in realizations ``r_first`` ..
+    ``r_end - 1`` (module docstring; disjoint ranges may run on parallel threads), ``N`` the number of nodes.
+    ``cursor`` = (next survey (R, N), next encoder request (R, N)) of each node, kept from chunk to chunk (start:
+    ``surveys`` first, ``out.ask_first``).  ``surveys`` = (first (N,), stop (N,), tick (S,), top (S,),
     arrival (R, S), event (S,), skip (N,)): the surveys node n sends, ``first[n]`` .. ``stop[n] - 1`` in tick
     order, each at its tick, up to the top node of its time and the ground station (arrival NaN where lost; its
     event's index, written by realization 0; ``skip[h]``: node h may send a survey its neighbour above left
-    unanswered on to node h - 2); ``nodes_cfg`` = (processing_s,
-    max_age_s, every_tick);
+    unanswered on to node h - 2); ``nodes_cfg`` = (processing_s, max_age_s, every_tick);
     ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures, min_margin_db); ``draws`` (R, L, 4): each
     link's PCG64 state, ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out``: the :class:`Records` it fills (the
-    encoder requests node by node; ``running`` is the same in every realization and written by realization 0).  The age of a forwarded reference is not kept: it is
-    T[n, k] - T[n - s, j], which phase 2 computes again.  Links: down link h = h (0: the surface link, the encoder
-    exchange of whichever node is on top), skip link of node n = N + n, up link h = 2N + h, survey skip link
-    of node h (up to h - 2) = 3N + h.
+    encoder requests node by node; ``running``, the same in every realization, is :func:`next_events`').  The age
+    of a forwarded reference is not kept: it is T[n, k] - T[n - s, j], which phase 2 computes again.  Links: down
+    link h = h (0: the surface link, the encoder exchange of whichever node is on top), skip link of node n = N + n,
+    up link h = 2N + h, survey skip link of node h (up to h - 2) = 3N + h.
     Returns a status code."""
-    N = T.shape[0]
-    ev_node, ev_tick = chunk
+    ev_node, ev_tick, ev_time, ev_code = chunk
     processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     s_first, s_stop, s_tick, s_top, s_arrival, s_event, s_skip = surveys
-    running, applied, src_offset, src_tick, ask_t_read, ask_age, stale, dup, _ = out  # a :class:`Records`
+    _, applied, src_offset, src_tick, ask_t_read, ask_age, stale, dup, _ = out  # a :class:`Records`
     s_cursor, a_cursor = cursor
     i_count = inbox[4]
     surface = N
@@ -284,18 +293,14 @@ def run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, c
         for i in range(ev_node.shape[0]):
             e = e_first + i
             n, k = ev_node[i], ev_tick[i]
-            t = T[n, k]
-            code = plan[n, k]
+            t, code = ev_time[i], ev_code[i]
             seq = e + 1
             if code == STATIC:
                 continue
             if code == HOLD:
                 i_count[r, n] = 0  # nothing arrives from a powered-down link; the state is saved
-            is_running = code == ASK or code == TOP or code == RUN
-            if r == 0 and is_running:
-                running[n, k] = True
             ready = t
-            valid = every_tick and is_running
+            valid = every_tick and (code == ASK or code == TOP or code == RUN)
             if code == ASK:
                 got, arr, end, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac, bits,
                                                scratch)
@@ -311,7 +316,7 @@ def run_events(T, chunk, e_first, plan, dead_at, surveys, nodes_cfg, fallback, c
                         ask_age[r, a] = arr2 - t_read
                         ready = arr2
                         valid = True
-            elif code == RUN and _select(r, n, k, t, T, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick,
+            elif code == RUN and _select(r, n, k, t, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick,
                                          bits):
                 applied[r, n, k] = True
                 valid = True
@@ -337,7 +342,7 @@ def _send_estimate(r, e, n, k, seq, t_ready, t, dead_at, fb_on, fb_link, fb_afte
     """Node n's estimate frame down its link, with the fallback to the next-but-one node (a status code)."""
     got, arr, end, c_try, c_ber = transfer(n + 1, r, t_ready, n, n + 1, dead_at[n + 1], chan, draws, radio, stats,
                                            mac, bits, scratch)
-    if got and not _deliver(inbox, r, n + 1, seq, n, k, arr, c_try, c_ber):
+    if got and not _deliver(inbox, r, n + 1, seq, n, k, t, arr, c_try, c_ber):
         return INBOX_FULL
     if not fb_on[n] or math.isnan(end):  # fallback off, or the queue dropped the frame (faults.Fallback)
         return DONE
@@ -350,7 +355,7 @@ def _send_estimate(r, e, n, k, seq, t_ready, t, dead_at, fb_on, fb_link, fb_afte
     if streak[r, n] > fb_after and margin[r, link, g] >= fb_min_margin:
         got, arr, end, c_try, c_ber = transfer(link, r, end, n, n + 2, dead_at[n + 2], chan, draws, radio, stats,
                                                mac, bits, scratch)
-        if got and not _deliver(inbox, r, n + 2, seq, n, k, arr, c_try, c_ber):
+        if got and not _deliver(inbox, r, n + 2, seq, n, k, t, arr, c_try, c_ber):
             return INBOX_FULL
     return DONE
 
