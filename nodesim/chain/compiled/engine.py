@@ -226,8 +226,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
             a[:] = 0
         spill.fill(net.scratch, bits[10], -1)  # the whole-run tables: on disk where they are large (net.scratch)
         out = ev.Records(spill.zeros(net.scratch, (N, Kmax), bool), spill.zeros(net.scratch, (R, N, Kmax), bool),
-                         spill.full(net.scratch, (R, N, Kmax), np.int8, -1),
-                         spill.full(net.scratch, (R, N, Kmax), np.int32, -1),
+                         spill.zeros(net.scratch, (R, N, Kmax), np.int8), spill.zeros(net.scratch, (R, N, Kmax), np.int32),
                          np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
                          np.zeros((R, N), np.int64), ask_first)
         surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),
@@ -235,28 +234,49 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         draws, last_seq, streak = links.states.copy(), np.full((R, N), -1, np.int64), np.zeros((R, N), np.int64)
         cursor = (np.repeat(s_first[None, :], R, axis=0), np.repeat(ask_first[None, :], R, axis=0))
 
-        def run(chunk: tuple, e_first: int) -> int:  # one chunk in every realization, ranges on threads
+        size = _chunk_events(K, R)
+        recs = [(np.zeros((R, size), bool), np.zeros((R, size), np.int8), np.zeros((R, size), np.int32))
+                for _ in range(2)]  # a chunk's records by event, two: one filled while the other is put in place
+
+        def run(chunk: tuple, e_first: int, slot: int) -> int:  # one chunk in every realization, ranges on threads
             def lanes(r0: int, r1: int) -> int:
                 scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
                 return ev.run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, links.chan,
                                      links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
-                                     out, cursor, r0, r1)
-            return max(threads.map_chunks(lanes, R))
+                                     out, recs[slot], cursor, r0, r1)
+            status = max(threads.map_chunks(lanes, R))
+            spill.drop(net.scratch)  # the pages of the tables read and written so far leave the process
+            return status
 
-        events, status = _each_chunk(T, K, dead_at, plan, out.running, run, lambda: spill.drop(net.scratch))
+        def scatter(chunk: tuple, slot: int) -> None:
+            ev.scatter_records(chunk, recs[slot], out.applied, out.src_offset, out.src_tick)
+
+        events, status = _each_chunk(T, K, dead_at, plan, out.running, size, run, scatter)
         if status == ev.DONE:
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
 
 
-def _each_chunk(T, K, dead_at, plan, running, run: Callable, after: Callable | None = None) -> tuple[int, int]:
-    """``run(chunk, first event)`` over the run's events in chunks (:func:`.events.next_events`: nodes, ticks, tick
-    times, plan codes; it also marks ``running``), the next chunk made on a worker thread while ``run`` takes the
-    last one, ``after()`` (when given) after each; (events, the first status that is not DONE, else DONE)."""
+RECORD_BUFFER_BYTES = 64 * 2**20
+"""Phase 1's records by event (:func:`.events.scatter_records`, 6 bytes an event and realization) take at most about
+this much per chunk: a run of many realizations takes its events in smaller chunks."""
+
+
+def _chunk_events(K: np.ndarray, R: int) -> int:
+    """Events per chunk of phase 1: :data:`.events.CHUNK_EVENTS`, fewer for many realizations
+    (:data:`RECORD_BUFFER_BYTES`), at most the run's ticks (at least its events)."""
+    return max(min(ev.CHUNK_EVENTS, max(RECORD_BUFFER_BYTES // (6 * R), 4096), int(K.sum())), 1)
+
+
+def _each_chunk(T, K, dead_at, plan, running, size: int, run: Callable, finish: Callable) -> tuple[int, int]:
+    """``run(chunk, first event, slot)`` over the run's events in chunks of at most ``size`` (:func:`.events.next_events`:
+    nodes, ticks, tick times, plan codes; it also marks ``running``), then ``finish(chunk, slot)``; ``slot`` (0, 1)
+    alternates from chunk to chunk.  One worker thread makes the next chunk while ``run`` takes the last one, and
+    runs ``finish`` after it (in that order: the chunk after next, in the same slot, is made after the finish of
+    this one); every ``finish`` is done when this returns (events, the first status that is not DONE, else DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
     queue, counters, next_k = ev.first_events(T, K, dead_at)
-    size = min(ev.CHUNK_EVENTS, max(int(K.sum()), 1))  # the run's ticks: at least its events
     buffers = [(np.empty(size, np.int32), np.empty(size, np.int32), np.empty(size), np.empty(size, np.int8))
                for _ in range(2)]
 
@@ -273,12 +293,12 @@ def _each_chunk(T, K, dead_at, plan, running, run: Callable, after: Callable | N
             chunk = coming.result()
             if not chunk[0].size:
                 return done, ev.DONE
+            slot = i % 2
             i += 1
             coming = pool.submit(make, i)  # into the other buffer, while this one runs
-            status = run(chunk, done)
+            status = run(chunk, done, slot)
             done += chunk[0].size
-            if after is not None:
-                after()
+            pool.submit(finish, chunk, slot)
             if status != ev.DONE:
                 coming.result()
                 return done, status

@@ -52,8 +52,8 @@ class Records(NamedTuple):
 
     running: np.ndarray  # (N, K) bool: the node ran that tick (same in every realization)
     applied: np.ndarray  # (R, N, K) bool: the node took a reference
-    src_offset: np.ndarray  # (R, N, K) int8: it came from node n - 1 (1) or n - 2 (2); -1 none or the encoder's
-    src_tick: np.ndarray  # (R, N, K) int32: the sender's tick it was read at
+    src_offset: np.ndarray  # (R, N, K) int8: it came from node n - 1 (1) or n - 2 (2); 0 none or the encoder's
+    src_tick: np.ndarray  # (R, N, K) int32: the sender's tick it was read at (where src_offset > 0; else 0)
     ask_t_read: np.ndarray  # (R, A): each encoder request's read time (its arrival; the tick itself where lost)
     ask_age: np.ndarray  # (R, A): the reply's arrival - t_read, NaN where none came back
     stale: np.ndarray  # (R, N) int64
@@ -132,10 +132,11 @@ def _swap(inbox, r, n, i, j) -> None:
 
 
 @njit(cache=True, inline="always")
-def _select(r, n, k, t, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick, bits) -> bool:
+def _select(r, n, k, i_ev, t, max_age_s, inbox, last_seq, stale, dup, ev_offset, ev_src, bits) -> bool:
     """Take the packets of node n's inbox that arrived by t and apply the selection rule (module docstring);
-    True if a fresh packet was taken (with ``mac.bit_errors``, its corrupting try, if any, is recorded).  A
-    packet's age is t - T[sender, its tick], that tick time carried in the inbox (``i_read``)."""
+    True if a fresh packet was taken: where it came from into the chunk's records at event ``i_ev``
+    (:func:`scatter_records`; with ``mac.bit_errors``, its corrupting try, if any, at (r, n, k)).  A packet's age is
+    t - T[sender, its tick], that tick time carried in the inbox (``i_read``)."""
     i_seq, i_src, i_tick, i_arr, i_count, i_try, i_ber, i_read = inbox
     c = i_count[r, n]
     m = 0
@@ -162,7 +163,7 @@ def _select(r, n, k, t, max_age_s, inbox, last_seq, stale, dup, src_offset, src_
         if newer and not have:
             have = True
             seq_taken = i_seq[r, n, j]
-            src_offset[r, n, k], src_tick[r, n, k] = n - i_src[r, n, j], i_tick[r, n, j]
+            ev_offset[r, i_ev], ev_src[r, i_ev] = n - i_src[r, n, j], i_tick[r, n, j]
             if bits[0]:
                 bits[10][r, n, k], bits[11][r, n, k] = i_try[r, n, j], i_ber[r, n, j]
     if have:
@@ -263,8 +264,28 @@ def forwarded_ages(t, src_offset, src_tick, t_above, t_two_above, age) -> None:
 
 
 @njit(cache=True, _nrt=False, nogil=True)
+def scatter_records(chunk, rec, applied, src_offset, src_tick) -> None:
+    """Put a chunk's records by event (``rec`` = (applied, offset, source tick) (R, chunk size), :func:`run_events`)
+    in place in the node-major (R, N, K) tables of :class:`Records` and zero them for the next chunk.  A separate
+    pass on the events thread: the events come in time order, one node after another, so each write lands on
+    another node's row (a cache and TLB miss each, ~17 % of phase 1 on the drilling day where :func:`run_events`
+    made them); a record is set only where a reference was applied (an offset only with a forwarded one)."""
+    ev_node, ev_tick = chunk[0], chunk[1]
+    ev_applied, ev_offset, ev_src = rec
+    for r in range(ev_applied.shape[0]):
+        for i in range(ev_node.shape[0]):
+            if ev_applied[r, i]:
+                n, k = ev_node[i], ev_tick[i]
+                applied[r, n, k] = True
+                ev_applied[r, i] = False
+                if ev_offset[r, i] > 0:
+                    src_offset[r, n, k], src_tick[r, n, k] = ev_offset[r, i], ev_src[r, i]
+                    ev_offset[r, i], ev_src[r, i] = 0, 0
+
+
+@njit(cache=True, _nrt=False, nogil=True)
 def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, margin, draws, radio, stats, mac,
-               bits, scratch, inbox, last_seq, streak, out, cursor, r_first, r_end):
+               bits, scratch, inbox, last_seq, streak, out, rec, cursor, r_first, r_end):
     """Run the events ``chunk`` = (nodes, ticks, times, codes) from :func:`next_events` (each event's tick time and
     plan code, :mod:`.tick_plan`, come with it), the run's events ``e_first`` on, in realizations ``r_first`` ..
     ``r_end - 1`` (module docstring; disjoint ranges may run on parallel threads), ``N`` the number of nodes.
@@ -276,7 +297,9 @@ def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, m
     unanswered on to node h - 2); ``nodes_cfg`` = (processing_s, max_age_s, every_tick);
     ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures, min_margin_db); ``draws`` (R, L, 4): each
     link's PCG64 state, ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out``: the :class:`Records` it fills (the
-    encoder requests node by node; ``running``, the same in every realization, is :func:`next_events`').  The age
+    encoder requests node by node; ``running``, the same in every realization, is :func:`next_events`'), except
+    applied, src_offset and src_tick: those go by event into ``rec`` = (applied, offset, source tick) (R, chunk
+    size), zero where nothing was taken, which :func:`scatter_records` puts in place.  The age
     of a forwarded reference is not kept: it is T[n, k] - T[n - s, j], which phase 2 computes again.  Links: down
     link h = h (0: the surface link, the encoder exchange of whichever node is on top), skip link of node n = N + n,
     up link h = 2N + h, survey skip link of node h (up to h - 2) = 3N + h.
@@ -285,7 +308,8 @@ def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, m
     processing_s, max_age_s, every_tick = nodes_cfg
     fb_on, fb_link, fb_after, fb_min_margin = fallback
     s_first, s_stop, s_tick, s_top, s_arrival, s_event, s_skip = surveys
-    _, applied, src_offset, src_tick, ask_t_read, ask_age, stale, dup, _ = out  # a :class:`Records`
+    ask_t_read, ask_age, stale, dup = out.ask_t_read, out.ask_age, out.stale, out.duplicate
+    ev_applied, ev_offset, ev_src = rec
     s_cursor, a_cursor = cursor
     i_count = inbox[4]
     surface = N
@@ -312,13 +336,13 @@ def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, m
                     have, arr2, end2, _, _ = transfer(0, r, end, surface, n, np.inf, chan, draws, radio, stats, mac,
                                                       bits, scratch)
                     if have:
-                        applied[r, n, k] = True
+                        ev_applied[r, i] = True
                         ask_age[r, a] = arr2 - t_read
                         ready = arr2
                         valid = True
-            elif code == RUN and _select(r, n, k, t, max_age_s, inbox, last_seq, stale, dup, src_offset, src_tick,
+            elif code == RUN and _select(r, n, k, i, t, max_age_s, inbox, last_seq, stale, dup, ev_offset, ev_src,
                                          bits):
-                applied[r, n, k] = True
+                ev_applied[r, i] = True
                 valid = True
             if n < N - 1 and valid:
                 status = _send_estimate(r, e, n, k, seq, ready + processing_s, t, dead_at, fb_on, fb_link, fb_after,

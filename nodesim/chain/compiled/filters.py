@@ -52,7 +52,7 @@ def run_node(fstate, fparams, counts, gyro, t, k_first, k_end, codes, enc_ref, e
     docstring; disjoint ranges may run on parallel threads, each with its own ``counts``); ``codes`` (K,) what
     the node does at each tick (:mod:`.tick_plan`: static ticks are the caller's, a holding tick records the saved
     state); ``up_*`` = (node above, node two above) tick times and records; ``src_node`` (R, K) holds 1 or 2 (how
-    far up the reference came from), -1 for none."""
+    far up the reference came from), 0 for none."""
     for r in range(r_first, r_end):  # realizations are independent: one after the other, each over its ticks
         fst = fstate[r]
         for k in range(k_first, k_end):

@@ -29,7 +29,7 @@ from firmware_model import frames as fr
 
 @njit(cache=True, _nrt=False, nogil=True)
 def receive_frames(src_node, src_tick, k_first, k_end, up_frames, rx_yaw_raw, rx_var_raw, r_first, r_end):
-    """``rx_*_raw[r, k]`` = the words of the frame taken at tick k (``src_node`` (R, K): 1 or 2, -1 for none)."""
+    """``rx_*_raw[r, k]`` = the words of the frame taken at tick k (``src_node`` (R, K): 1 or 2, 0 for none)."""
     for r in range(r_first, r_end):
         for k in range(k_first, k_end):
             if src_node[r, k] > 0:

@@ -14,7 +14,7 @@ def above_nodes(net, n: int) -> tuple:
 
 def float_references(net, n: int, encoder_reads: tuple, src_offset: np.ndarray) -> tuple:
     """Node index ``n``'s (encoder reference (R, K) at its ``ASK`` ticks, a (1, 1) stand-in where it never asks;
-    how far up each tick's forwarded reference came from (R, K): 1, 2 or -1 for none; the (node above, node two
+    how far up each tick's forwarded reference came from (R, K): 1, 2 or 0 for none; the (node above, node two
     above) tick times, yaw and variance records), from phase 1's ``src_offset`` (R, N, K): the encoder reply brought back to the tick with its rate,
     psi_ref = psi_enc(t_read) - rate_enc (t_read - T[k]) (:class:`nodesim.chain.sensing.EncoderReader`)."""
     node = net.nodes[n]
