@@ -134,8 +134,8 @@ class Network:
             self.scratch = scratch.ScratchArrays(scratch.scratch_directory())
         self.tick_table = scratch.zeros(self.scratch, (c.nodes, max(sizes)), float)
         for i, size in enumerate(sizes):
-            scratch.write_row(self.scratch, self.tick_table, i, self._tick_times(i))
             t = self.tick_table[i, :size]
+            t[:] = self._tick_times(i)
             if i % scratch.DROP_EVERY_ROWS == scratch.DROP_EVERY_ROWS - 1:
                 scratch.drop(self.scratch)  # the rows written so far leave memory
             node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))

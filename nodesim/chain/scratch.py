@@ -85,45 +85,27 @@ class ScratchArrays:
     def __init__(self, directory: Path):
         self.directory = Path(directory)
         self._maps: list[mmap.mmap] = []
-        self._files: list[tuple[np.ndarray, object]] = []  # (array, its open file): :meth:`write_row`
         self.nbytes = 0
 
     def empty(self, shape: tuple, dtype) -> np.ndarray:
         """A new array of ``shape`` and ``dtype`` in the file, every byte 0 (the file's unwritten blocks)."""
         dtype = np.dtype(dtype)
         size = max(math.prod(shape) * dtype.itemsize, 1)
-        f = tempfile.TemporaryFile(dir=self.directory, prefix="nodesim-scratch-")  # kept open: write_row
-        try:
-            os.posix_fallocate(f.fileno(), 0, size)
-        except OSError as err:
-            f.close()
-            free = free_disk_bytes(self.directory)[0]
-            raise NodesimError(
-                f"the run's whole-run tables need {size / 1e9:.3g} GB more of scratch space in {self.directory} "
-                f"(the temporary directory; TMPDIR chooses it) and it has {free / 1e9:.3g} GB free ({err.strerror}): "
-                "free some, point TMPDIR elsewhere, or lower chain.nodes / simulation.duration_s") from None
-        m = mmap.mmap(f.fileno(), size)  # shared, read-write
+        with tempfile.TemporaryFile(dir=self.directory, prefix="nodesim-scratch-") as f:
+            try:
+                os.posix_fallocate(f.fileno(), 0, size)
+            except OSError as err:
+                free = free_disk_bytes(self.directory)[0]
+                raise NodesimError(
+                    f"the run's whole-run tables need {size / 1e9:.3g} GB more of scratch space in {self.directory} "
+                    f"(the temporary directory; TMPDIR chooses it) and it has {free / 1e9:.3g} GB free ({err.strerror}): "
+                    "free some, point TMPDIR elsewhere, or lower chain.nodes / simulation.duration_s") from None
+            m = mmap.mmap(f.fileno(), size)  # shared, read-write; the mapping outlives the (unlinked) file's descriptor
         if hasattr(mmap, "MADV_RANDOM"):  # a read maps its page, not the large folio around it (up to ~1 MB on Linux 6)
             m.madvise(mmap.MADV_RANDOM)
         self._maps.append(m)
         self.nbytes += size
-        a = np.frombuffer(m, dtype=dtype, count=math.prod(shape)).reshape(shape)
-        self._files.append((a, f))
-        return a
-
-    def write_row(self, a: np.ndarray, i: int, values: np.ndarray) -> bool:
-        """``a[i, :values.size] = values`` for ``a`` (N, K) one of these arrays, through its file (``pwrite``), not its
-        mapping: a write into the mapping faults each page in, zero-filled, before writing over it (a fresh page
-        cache page either way, but ~2-3x the system time on this project's VM for the 1.3 GB tick table of the
-        drilling day); the mapping reads the same bytes.  False (nothing written) if ``a`` is not one of them."""
-        for b, f in self._files:
-            if b is a:
-                data = memoryview(np.ascontiguousarray(values, dtype=a.dtype)).cast("B")
-                done, at = 0, i * a.strides[0]
-                while done < len(data):  # a regular file takes it whole; a short write goes on where it stopped
-                    done += os.pwrite(f.fileno(), data[done:], at + done)
-                return True
-        return False
+        return np.frombuffer(m, dtype=dtype, count=math.prod(shape)).reshape(shape)
 
     def full(self, shape: tuple, dtype, value) -> np.ndarray:
         """:meth:`empty` filled with ``value`` (:meth:`fill`)."""
@@ -176,12 +158,6 @@ def fill(arrays: ScratchArrays | None, a: np.ndarray, value) -> None:
         a[...] = value
     else:
         arrays.fill(a, value)
-
-
-def write_row(arrays: ScratchArrays | None, a: np.ndarray, i: int, values: np.ndarray) -> None:
-    """``a[i, :values.size] = values`` (:meth:`ScratchArrays.write_row` where ``a`` is in ``arrays``)."""
-    if arrays is None or not arrays.write_row(a, i, values):
-        a[i, :values.size] = values
 
 
 def drop(arrays: ScratchArrays | None) -> None:
