@@ -31,7 +31,7 @@ SPILL_MIN_BYTES = 64 * 2**20
 """A streamed compiled run keeps its whole-run tables on disk when they would take more than this in memory."""
 
 FILL_BYTES = 64 * 2**20
-""":meth:`ScratchArrays.full` writes its value this many bytes at a time, dropping each slice's pages after it."""
+""":meth:`ScratchArrays.fill` writes its value this many bytes at a time, dropping each slice's pages after it."""
 
 DROP_EVERY_ROWS = 64
 """A table built a node's row at a time (tick times, tick plan) drops its pages every this many rows."""
@@ -107,13 +107,6 @@ class ScratchArrays:
         self.nbytes += size
         return np.frombuffer(m, dtype=dtype, count=math.prod(shape)).reshape(shape)
 
-    def full(self, shape: tuple, dtype, value) -> np.ndarray:
-        """:meth:`empty` filled with ``value`` (:meth:`fill`)."""
-        a = self.empty(shape, dtype)
-        if value != 0:
-            self.fill(a, value)
-        return a
-
     def fill(self, a: np.ndarray, value) -> None:
         """Set every element of ``a`` (one of these arrays, contiguous) to ``value``, :data:`FILL_BYTES` at a time,
         dropping the pages after each slice."""
@@ -145,11 +138,6 @@ def free_disk_bytes(directory) -> tuple[float, int | None]:
 def zeros(arrays: ScratchArrays | None, shape: tuple, dtype) -> np.ndarray:
     """A zero array of ``shape``: in ``arrays`` (:meth:`ScratchArrays.empty`), or in memory where it is None."""
     return np.zeros(shape, dtype) if arrays is None else arrays.empty(shape, dtype)
-
-
-def full(arrays: ScratchArrays | None, shape: tuple, dtype, value) -> np.ndarray:
-    """An array of ``shape`` filled with ``value``: in ``arrays`` (:meth:`ScratchArrays.full`), or in memory."""
-    return np.full(shape, value, dtype) if arrays is None else arrays.full(shape, dtype, value)
 
 
 def fill(arrays: ScratchArrays | None, a: np.ndarray, value) -> None:

@@ -226,7 +226,8 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
             a[:] = 0
         spill.fill(net.scratch, bits[10], -1)  # the whole-run tables: on disk where they are large (net.scratch)
         out = ev.Records(spill.zeros(net.scratch, (N, Kmax), bool), spill.zeros(net.scratch, (R, N, Kmax), bool),
-                         spill.zeros(net.scratch, (R, N, Kmax), np.int8), spill.zeros(net.scratch, (R, N, Kmax), np.int32),
+                         spill.zeros(net.scratch, (R, N, Kmax), np.int8),
+                         spill.zeros(net.scratch, (R, N, Kmax), np.int32),
                          np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
                          np.zeros((R, N), np.int64), ask_first)
         surveys = (s_first, s_stop, s_tick, s_top, np.full((R, s_tick.size), np.nan), np.zeros(s_tick.size, np.int64),

@@ -65,6 +65,12 @@ CHUNK_EVENTS = 1 << 22
 """Events per chunk (32 MB of order; a chunk is run in every realization before the next is made)."""
 
 
+@njit(cache=True, inline="always")
+def _running(code) -> bool:
+    """Whether a tick of plan ``code`` is a running one (:data:`.tick_plan.RUNNING`: ``ASK``, ``TOP``, ``RUN``)."""
+    return code == ASK or code == TOP or code == RUN
+
+
 @njit(cache=True, nogil=True)
 def _less(ta, ea, tb, eb) -> bool:
     return ta < tb or (ta == tb and ea < eb)
@@ -231,7 +237,7 @@ def next_events(T, K, dead_at, plan, running, queue, counters, next_k, nodes, ti
         nodes[e], ticks[e], times[e] = n, k, T[n, k]
         code = plan[n, k]
         codes[e] = code
-        if code == ASK or code == TOP or code == RUN:
+        if _running(code):
             running[n, k] = True
         e += 1
         k += 1
@@ -324,7 +330,7 @@ def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, m
             if code == HOLD:
                 i_count[r, n] = 0  # nothing arrives from a powered-down link; the state is saved
             ready = t
-            valid = every_tick and (code == ASK or code == TOP or code == RUN)
+            valid = every_tick and _running(code)
             if code == ASK:
                 got, arr, end, _, _ = transfer(0, r, t, n, surface, np.inf, chan, draws, radio, stats, mac, bits,
                                                scratch)

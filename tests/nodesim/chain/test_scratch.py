@@ -31,7 +31,8 @@ def test_an_array_keeps_its_values_after_its_pages_are_dropped(tmp_path):
     s = scratch.ScratchArrays(tmp_path)
     a = s.empty((3, 5000), np.int32)
     assert not a.any()  # the file's unwritten blocks read as zeros
-    b = s.full((2, 3, 7000), np.int8, -1)
+    b = s.empty((2, 3, 7000), np.int8)
+    s.fill(b, -1)
     assert (b == -1).all()
     values = np.arange(a.size, dtype=np.int32).reshape(a.shape)
     a[:] = values
@@ -55,10 +56,11 @@ def test_dropping_takes_the_pages_out_of_the_resident_memory(tmp_path):
     assert int(a[::4096].sum()) == a.size // 4096  # and the values are read back from the file
 
 
-def test_full_writes_its_value_a_slice_at_a_time(tmp_path, monkeypatch):
+def test_fill_writes_its_value_a_slice_at_a_time(tmp_path, monkeypatch):
     monkeypatch.setattr(scratch, "FILL_BYTES", 4096)
     s = scratch.ScratchArrays(tmp_path)
-    a = s.full((10, 1001), np.int64, -7)
+    a = s.empty((10, 1001), np.int64)
+    s.fill(a, -7)
     assert (a == -7).all()
 
 
