@@ -60,8 +60,9 @@ TICK_BYTES = 411
 EVENT_ENGINE_TICK_BYTES = 2300
 """Per node-tick on the SimPy engine (drilling), beyond the compiled engine's."""
 STREAMED_BASE_BYTES = 310 * 2**20
-STREAMED_TICK_BYTES = 11.5
-"""A streamed run, per node-tick (N K_max): the tick-time table, the tick plan, the running flags."""
+STREAMED_TICK_BYTES = 10.5
+"""A streamed run, per node-tick (N K_max): the tick-time table, the tick plan (the running flags, 1 byte more, until
+2026-12-05)."""
 STREAMED_REALIZATION_TICK_BYTES = 6
 """A streamed run, per realization and node-tick (N K_max): phase 1's records."""
 STREAMED_RUN_TICK_BYTES = 2727

@@ -1,8 +1,8 @@
 """Arrays kept on disk, not in the process's memory: the whole-run tables of a streamed compiled run (issue 20).
 
 A streamed run holds a few nodes' records at a time, but the compiled engine's phase 1 needs tables over every
-node-tick of the run before phase 2 starts: the tick times (8 bytes a node-tick), the tick plan (1), the running
-flags (1) and phase 1's records (which estimate reaches which tick: 6 bytes a node-tick and realization).  Phase 1
+node-tick of the run before phase 2 starts: the tick times (8 bytes a node-tick), the tick plan (1) and phase 1's
+records (which estimate reaches which tick: 6 bytes a node-tick and realization).  Phase 1
 writes them in time order, a chunk of events at a time, and phase 2 reads them a node at a time; neither needs the
 rest in memory.  :class:`ScratchArrays` keeps such arrays in an unlinked temporary file (its blocks reserved at once
 with ``posix_fallocate``: a full disk is a clear error before the run, never a SIGBUS in it), memory-mapped shared,
@@ -66,9 +66,9 @@ def scratch_directory() -> Path | None:
 
 def whole_run_table_bytes(n_nodes: int, k_max: int, realizations: int, bit_errors: bool) -> int:
     """The bytes of a compiled run's whole-run tables (module docstring), padded to the longest node's ticks: tick
-    times, plan and running flags, phase 1's records per realization (with ``mac.bit_errors``, each tick's try and
-    BER too: 16 bytes more)."""
-    return n_nodes * k_max * (10 + realizations * (6 + (16 if bit_errors else 0)))
+    times and plan, phase 1's records per realization (with ``mac.bit_errors``, each tick's try and BER too: 16
+    bytes more)."""
+    return n_nodes * k_max * (9 + realizations * (6 + (16 if bit_errors else 0)))
 
 
 def spills(n_nodes: int, k_max: int, realizations: int, bit_errors: bool) -> bool:

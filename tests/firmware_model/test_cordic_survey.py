@@ -320,3 +320,22 @@ def test_northward_tilt_gives_azimuth_zero():
     assert resolve(f, np.array([0.0])).azimuth_rad[0] == pytest.approx(0.0, abs=1e-12)
     _, a = fixed_of(f[0], 0.0)
     assert abs(np.angle(np.exp(1j * a))) < 1e-6
+
+
+@settings(max_examples=3000, deadline=None)
+@given(st.integers(-(2**40), 2**40), st.integers(1, 4096))
+def test_the_average_divides_by_its_count_as_div_round_does(x, n):
+    """ma_push divides by a power-of-two count with a rounding shift: the same value as the division."""
+    from firmware_model.fixed_kernel import div_round
+
+    assert survey._div_round_count(x, n) == div_round(x, n)
+
+
+@settings(max_examples=3000, deadline=None)
+@given(st.integers(1, 2**62), st.one_of(st.integers(1, 2**62), st.integers(1, 2**49)),
+       st.sampled_from([cordic.MAX_INPUT, 2**40, 12345]))
+def test_the_offset_overflow_test_is_the_division_test(n, a, limit):
+    """align_correction's overflow test by multiplication (where it cannot overflow) is ``n > limit // a``."""
+    assert survey._times_exceeds(n, a, limit) == (n > limit // a)
+    assert survey._times_exceeds(min(n, 2**14 - 1), min(a, 2**48 - 1), limit) == (
+        min(n, 2**14 - 1) > limit // min(a, 2**48 - 1))

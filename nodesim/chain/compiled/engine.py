@@ -225,7 +225,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         for a in bits[8:10]:
             a[:] = 0
         spill.fill(net.scratch, bits[10], -1)  # the whole-run tables: on disk where they are large (net.scratch)
-        out = ev.Records(spill.zeros(net.scratch, (N, Kmax), bool), spill.zeros(net.scratch, (R, N, Kmax), bool),
+        out = ev.Records(spill.zeros(net.scratch, (R, N, Kmax), bool),
                          spill.zeros(net.scratch, (R, N, Kmax), np.int8),
                          spill.zeros(net.scratch, (R, N, Kmax), np.int32),
                          np.full((R, A), np.nan), np.full((R, A), np.nan), np.zeros((R, N), np.int64),
@@ -252,7 +252,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         def scatter(chunk: tuple, slot: int) -> None:
             ev.scatter_records(chunk, recs[slot], out.applied, out.src_offset, out.src_tick)
 
-        events, status = _each_chunk(T, K, dead_at, plan, out.running, size, run, scatter)
+        events, status = _each_chunk(T, K, dead_at, plan, size, run, scatter)
         if status == ev.DONE:
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
@@ -269,9 +269,9 @@ def _chunk_events(K: np.ndarray, R: int) -> int:
     return max(min(ev.CHUNK_EVENTS, max(RECORD_BUFFER_BYTES // (6 * R), 4096), int(K.sum())), 1)
 
 
-def _each_chunk(T, K, dead_at, plan, running, size: int, run: Callable, finish: Callable) -> tuple[int, int]:
+def _each_chunk(T, K, dead_at, plan, size: int, run: Callable, finish: Callable) -> tuple[int, int]:
     """``run(chunk, first event, slot)`` over the run's events in chunks of at most ``size`` (:func:`.events.next_events`:
-    nodes, ticks, tick times, plan codes; it also marks ``running``), then ``finish(chunk, slot)``; ``slot`` (0, 1)
+    nodes, ticks, tick times, plan codes), then ``finish(chunk, slot)``; ``slot`` (0, 1)
     alternates from chunk to chunk.  One worker thread makes the next chunk while ``run`` takes the last one, and
     runs ``finish`` after it (in that order: the chunk after next, in the same slot, is made after the finish of
     this one); every ``finish`` is done when this returns (events, the first status that is not DONE, else DONE)."""
@@ -283,7 +283,7 @@ def _each_chunk(T, K, dead_at, plan, running, size: int, run: Callable, finish: 
 
     def make(i: int) -> tuple:
         chunk = buffers[i % 2]
-        count = ev.next_events(T, K, dead_at, plan, running, queue, counters, next_k, *chunk)
+        count = ev.next_events(T, K, dead_at, plan, queue, counters, next_k, *chunk)
         return tuple(a[:count] for a in chunk)
 
     done = 0
@@ -328,7 +328,7 @@ def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
     (:func:`.events.forwarded_ages`: the same subtraction phase 1 made)."""
     node = net.nodes[n]
     K = node.t_s.size
-    node.running[:] = out.running[n, :K]
+    node.running[:] = ev.running_ticks(codes, node.t_s, node.dead_at_s)
     node.applied = out.applied[:, n, :K]
     node.stale, node.duplicate = out.stale[:, n].copy(), out.duplicate[:, n].copy()
     above = above_nodes(net, n)

@@ -50,7 +50,6 @@ DONE, INBOX_FULL = 0, 2
 class Records(NamedTuple):
     """Phase 1's records, what phase 2 reads (N nodes, K ticks, R realizations, A encoder requests of the run)."""
 
-    running: np.ndarray  # (N, K) bool: the node ran that tick (same in every realization)
     applied: np.ndarray  # (R, N, K) bool: the node took a reference
     src_offset: np.ndarray  # (R, N, K) int8: it came from node n - 1 (1) or n - 2 (2); 0 none or the encoder's
     src_tick: np.ndarray  # (R, N, K) int32: the sender's tick it was read at (where src_offset > 0; else 0)
@@ -63,6 +62,12 @@ class Records(NamedTuple):
 
 CHUNK_EVENTS = 1 << 22
 """Events per chunk (32 MB of order; a chunk is run in every realization before the next is made)."""
+
+
+def running_ticks(codes: np.ndarray, t_s: np.ndarray, dead_at_s: float) -> np.ndarray:
+    """(K,) bool: the node ran that tick (the same in every realization): a ``RUNNING`` code (:func:`_running`) on a
+    tick that was an event, before the node's death (:func:`next_events` queues a node's ticks while T < dead_at)."""
+    return ((codes == ASK) | (codes == TOP) | (codes == RUN)) & (t_s < dead_at_s)
 
 
 @njit(cache=True, inline="always")
@@ -204,17 +209,18 @@ def _first_events(T, K, dead_at, queue, counters) -> None:
 
 
 @njit(cache=True, nogil=True)
-def next_events(T, K, dead_at, plan, running, queue, counters, next_k, nodes, ticks, times, codes) -> int:
+def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, times, codes) -> int:
     """The next events in SimPy's order (module docstring), resuming the queue of :func:`first_events`: (node, tick)
     into ``nodes``, ``ticks`` (int32: a run's nodes and ticks stay far below 2^31; a day at 1.9 Hz is 164 k ticks),
     the tick's time T[n, k] into ``times`` and its code plan[n, k] into ``codes``, as many as fit; returns how many
-    (0: the run is over).  ``running[n, k]`` (the same in every realization) is set for each running tick (``RUNNING``
-    codes).  A node's next tick is queued at now + (T - now), as ``env.timeout(t - env.now)`` schedules it.
+    (0: the run is over).  A node's next tick is queued at now + (T - now), as ``env.timeout(t - env.now)``
+    schedules it; its ticks are events while T < its ``dead_at`` (the running flags phase 2 needs follow from that
+    and the plan: :func:`running_ticks`).
 
-    The chunk carries each event's time and code, and ``running`` is written here, because this runs on its own
-    thread beside :func:`run_events`: T, plan and running are (N, K) tables, node-major, and events come in time
-    order, one node after another, so each of those reads and writes lands on another node's row (a cache and TLB
-    miss each; T[n, k] alone was ~30 % of phase 1 on the drilling day when :func:`run_events` read it).
+    The chunk carries each event's time and code, read here, because this runs on its own thread beside
+    :func:`run_events`: T and plan are (N, K) tables, node-major, and events come in time order, one node after
+    another, so each of those reads lands on another node's row (a cache and TLB miss each; T[n, k] alone was ~30 %
+    of phase 1 on the drilling day when :func:`run_events` read it).
 
     The queue is a ring of events in (time, creation counter) order plus a heap of the rest; the next event is
     the smaller head of the two.  A new event has the largest counter yet, so it goes at the end of the ring when
@@ -237,8 +243,6 @@ def next_events(T, K, dead_at, plan, running, queue, counters, next_k, nodes, ti
         nodes[e], ticks[e], times[e] = n, k, T[n, k]
         code = plan[n, k]
         codes[e] = code
-        if _running(code):
-            running[n, k] = True
         e += 1
         k += 1
         next_k[n] = k
@@ -303,7 +307,7 @@ def run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, chan, m
     unanswered on to node h - 2); ``nodes_cfg`` = (processing_s, max_age_s, every_tick);
     ``fallback`` = (enabled (N,) bool, skip link (N,) int, after_failures, min_margin_db); ``draws`` (R, L, 4): each
     link's PCG64 state, ``bits``, ``scratch``: :mod:`.mac_kernel`; ``out``: the :class:`Records` it fills (the
-    encoder requests node by node; ``running``, the same in every realization, is :func:`next_events`'), except
+    encoder requests node by node), except
     applied, src_offset and src_tick: those go by event into ``rec`` = (applied, offset, source tick) (R, chunk
     size), zero where nothing was taken, which :func:`scatter_records` puts in place.  The age
     of a forwarded reference is not kept: it is T[n, k] - T[n - s, j], which phase 2 computes again.  Links: down

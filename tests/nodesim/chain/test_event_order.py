@@ -31,9 +31,8 @@ def _compiled_order(T, K, dead_at, chunk):
     nodes, ticks = np.empty(chunk, np.int32), np.empty(chunk, np.int32)
     times, codes = np.empty(chunk), np.empty(chunk, np.int8)
     plan = np.zeros(T.shape, np.int8)
-    running = np.zeros(T.shape, np.bool_)
     order = []
-    while count := ev.next_events(T, K, dead_at, plan, running, queue, counters, next_k, nodes, ticks, times, codes):
+    while count := ev.next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, times, codes):
         order += list(zip(nodes[:count].tolist(), ticks[:count].tolist()))
         assert times[:count].tolist() == [T[n, k] for n, k in order[-count:]]
     return order

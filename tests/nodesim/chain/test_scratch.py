@@ -89,10 +89,10 @@ def test_the_mount_of_a_path_is_found():
 
 
 def test_the_whole_run_tables_are_counted_per_node_tick_and_realization():
-    # tick times 8 + plan 1 + running 1 a node-tick; per realization the flag 1, source offset 1, source tick 4;
+    # tick times 8 + plan 1 a node-tick; per realization the flag 1, source offset 1, source tick 4;
     # with mac.bit_errors the tick's try (int64) and BER (float64)
-    assert scratch.whole_run_table_bytes(2, 100, 3, False) == 2 * 100 * (10 + 3 * 6)
-    assert scratch.whole_run_table_bytes(2, 100, 3, True) == 2 * 100 * (10 + 3 * 22)
+    assert scratch.whole_run_table_bytes(2, 100, 3, False) == 2 * 100 * (9 + 3 * 6)
+    assert scratch.whole_run_table_bytes(2, 100, 3, True) == 2 * 100 * (9 + 3 * 22)
 
 
 @pytest.mark.parametrize("path, overrides", [
