@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from nodesim.chain.compiled.mac_kernel import time_row, transfer
+from nodesim.prefetch import AHEAD, prefetch
 from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, STATIC, TOP
 
 DONE, INBOX_FULL = 0, 2
@@ -220,7 +221,8 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
     The chunk carries each event's time and code, read here, because this runs on its own thread beside
     :func:`run_events`: T and plan are (N, K) tables, node-major, and events come in time order, one node after
     another, so each of those reads lands on another node's row (a cache and TLB miss each; T[n, k] alone was ~30 %
-    of phase 1 on the drilling day when :func:`run_events` read it).
+    of phase 1 on the drilling day when :func:`run_events` read it): the entries of the event :data:`nodesim.prefetch.AHEAD`
+    on in the ring are prefetched (5.4 -> 3.5 s for the day's 146.5 M events).
 
     The queue is a ring of events in (time, creation counter) order plus a heap of the rest; the next event is
     the smaller head of the two.  A new event has the largest counter yet, so it goes at the end of the ring when
@@ -233,6 +235,11 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
     size, eid, head, ring = counters[0], counters[1], counters[2], counters[3]
     e = 0
     while (size > 0 or ring > 0) and e < nodes.shape[0]:
+        if ring > AHEAD:  # the entries of the event AHEAD on in the ring, asked for now (:mod:`nodesim.prefetch`)
+            a = head + AHEAD if head + AHEAD < N else head + AHEAD - N
+            m = r_n[a]
+            prefetch(T, (m, next_k[m]), False)
+            prefetch(plan, (m, next_k[m]), False)
         if ring > 0 and (size == 0 or _less(r_t[head], r_e[head], h_t[0], h_e[0])):
             now, n = r_t[head], r_n[head]
             head = head + 1 if head + 1 < N else 0

@@ -61,3 +61,14 @@ def test_the_event_order_is_simpys(seed):
     T, K, dead_at = _random_clocks(rng)
     assert _compiled_order(T, K, dead_at, int(rng.choice([1, 4, 1000]))) == _simpy_order(T, K, dead_at)
 
+
+
+def test_the_event_order_is_simpys_with_more_nodes_than_the_prefetch_looks_ahead():
+    """A ring longer than :data:`~nodesim.prefetch.AHEAD` (its prefetches run): the same order."""
+    from nodesim.prefetch import AHEAD
+
+    rng = np.random.default_rng(7)
+    N, K_max = 4 * AHEAD, 40
+    T = np.arange(K_max)[None, :] * rng.uniform(0.99, 1.01, (N, 1)) + rng.uniform(0, 1, (N, 1))
+    K, dead_at = rng.integers(1, K_max + 1, N), np.where(rng.random(N) < 0.1, rng.uniform(0, 40, N), np.inf)
+    assert _compiled_order(T, K, dead_at, 1000) == _simpy_order(T, K, dead_at)
