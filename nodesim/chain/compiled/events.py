@@ -42,7 +42,7 @@ import numpy as np
 from numba import njit
 
 from nodesim.chain.compiled.mac_kernel import time_row, transfer
-from nodesim.prefetch import AHEAD, prefetch
+from nodesim.chain.compiled.prefetch import AHEAD, prefetch
 from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, STATIC, TOP
 
 DONE, INBOX_FULL = 0, 2
@@ -221,7 +221,7 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
     The chunk carries each event's time and code, read here, because this runs on its own thread beside
     :func:`run_events`: T and plan are (N, K) tables, node-major, and events come in time order, one node after
     another, so each of those reads lands on another node's row (a cache and TLB miss each; T[n, k] alone was ~30 %
-    of phase 1 on the drilling day when :func:`run_events` read it): the entries of the event :data:`nodesim.prefetch.AHEAD`
+    of phase 1 on the drilling day when :func:`run_events` read it): the entries of the event :data:`.prefetch.AHEAD`
     on in the ring are prefetched (5.4 -> 3.5 s for the day's 146.5 M events).
 
     The queue is a ring of events in (time, creation counter) order plus a heap of the rest; the next event is
@@ -235,7 +235,7 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
     size, eid, head, ring = counters[0], counters[1], counters[2], counters[3]
     e = 0
     while (size > 0 or ring > 0) and e < nodes.shape[0]:
-        if ring > AHEAD:  # the entries of the event AHEAD on in the ring, asked for now (:mod:`nodesim.prefetch`)
+        if ring > AHEAD:  # the entries of the event AHEAD on in the ring, asked for now (:mod:`.prefetch`)
             a = head + AHEAD if head + AHEAD < N else head + AHEAD - N
             m = r_n[a]
             prefetch(T, (m, next_k[m]), False)

@@ -64,8 +64,8 @@ def test_the_event_order_is_simpys(seed):
 
 
 def test_the_event_order_is_simpys_with_more_nodes_than_the_prefetch_looks_ahead():
-    """A ring longer than :data:`~nodesim.prefetch.AHEAD` (its prefetches run): the same order."""
-    from nodesim.prefetch import AHEAD
+    """A ring longer than :data:`~nodesim.chain.compiled.prefetch.AHEAD` (its prefetches run): the same order."""
+    from nodesim.chain.compiled.prefetch import AHEAD
 
     rng = np.random.default_rng(7)
     N, K_max = 4 * AHEAD, 40
