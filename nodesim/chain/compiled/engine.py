@@ -237,7 +237,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
 
         size = _chunk_events(K, R)
         recs = [(np.zeros((R, size), bool), np.zeros((R, size), np.int8), np.zeros((R, size), np.int32))
-                for _ in range(CHUNK_SLOTS)]  # a chunk's records by event: one filled while another is put in place
+                for _ in range(2)]  # a chunk's records by event, two: one filled while the other is put in place
 
         def run(chunk: tuple, e_first: int, slot: int) -> int:  # one chunk in every realization, ranges on threads
             def lanes(r0: int, r1: int) -> int:
@@ -269,53 +269,40 @@ def _chunk_events(K: np.ndarray, R: int) -> int:
     return max(min(ev.CHUNK_EVENTS, max(RECORD_BUFFER_BYTES // (6 * R), 4096), int(K.sum())), 1)
 
 
-CHUNK_SLOTS = 3
-"""Phase 1 keeps this many chunks of events (and of records by event) in flight: one being made, one being run, one
-being put in place (:func:`_each_chunk`)."""
-
-
 def _each_chunk(T, K, dead_at, plan, size: int, run: Callable, finish: Callable) -> tuple[int, int]:
     """``run(chunk, first event, slot)`` over the run's events in chunks of at most ``size`` (:func:`.events.next_events`:
-    nodes, ticks, tick times, plan codes), then ``finish(chunk, slot)``; chunk c takes ``slot`` c mod
-    :data:`CHUNK_SLOTS`.  Three threads, a pipeline: a worker makes chunk c + 1 while ``run`` takes chunk c in this
-    thread and another worker runs ``finish`` of chunk c - 1; a slot is made again only once its last ``finish`` is
-    done.  Every ``finish`` is done when this returns (events, the first status that is not DONE, else DONE)."""
+    nodes, ticks, tick times, plan codes), then ``finish(chunk, slot)``; ``slot`` (0, 1)
+    alternates from chunk to chunk.  One worker thread makes the next chunk while ``run`` takes the last one, and
+    runs ``finish`` after it (in that order: the chunk after next, in the same slot, is made after the finish of
+    this one); every ``finish`` is done when this returns (events, the first status that is not DONE, else DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
     queue, counters, next_k = ev.first_events(T, K, dead_at)
     buffers = [(np.empty(size, np.int32), np.empty(size, np.int32), np.empty(size), np.empty(size, np.int8))
-               for _ in range(CHUNK_SLOTS)]
-    finishing: list = [None] * CHUNK_SLOTS
+               for _ in range(2)]
 
-    def make(c: int) -> tuple:
-        if finishing[c % CHUNK_SLOTS] is not None:
-            finishing[c % CHUNK_SLOTS].result()  # chunk c - CHUNK_SLOTS is in place: its slot is free
-        chunk = buffers[c % CHUNK_SLOTS]
+    def make(i: int) -> tuple:
+        chunk = buffers[i % 2]
         count = ev.next_events(T, K, dead_at, plan, queue, counters, next_k, *chunk)
         return tuple(a[:count] for a in chunk)
 
     done = 0
-    with ThreadPoolExecutor(1, thread_name_prefix="nodesim-events") as events, \
-            ThreadPoolExecutor(1, thread_name_prefix="nodesim-records") as records:
-        coming = events.submit(make, 0)
-        c = 0
+    with ThreadPoolExecutor(1, thread_name_prefix="nodesim-events") as pool:
+        coming = pool.submit(make, 0)
+        i = 0
         while True:
             chunk = coming.result()
             if not chunk[0].size:
-                break
-            slot = c % CHUNK_SLOTS
-            c += 1
-            coming = events.submit(make, c)  # the next chunk, while this one runs
+                return done, ev.DONE
+            slot = i % 2
+            i += 1
+            coming = pool.submit(make, i)  # into the other buffer, while this one runs
             status = run(chunk, done, slot)
             done += chunk[0].size
-            finishing[slot] = records.submit(finish, chunk, slot)
+            pool.submit(finish, chunk, slot)
             if status != ev.DONE:
                 coming.result()
-                break
-        for f in finishing:
-            if f is not None:
-                f.result()
-    return done, (ev.DONE if not chunk[0].size else status)
+                return done, status
 
 
 def _asks(n: int, codes: np.ndarray, out: ev.Records) -> tuple[np.ndarray, slice]:
