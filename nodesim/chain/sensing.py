@@ -15,6 +15,7 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from nodesim.motion.timelines import ChainMotion
 from nodesim.rng.streams import RunStreams
@@ -56,12 +57,12 @@ def node_signals(
     imu = ChainImu.from_scenario(scenario)
     c = node_counts(imu, motion, streams, node_index, t_s, dt_s, R, shared_truth(scenario, motion, dt_s))
     att = motion.attitude(node_index, t_s)
-    n = c.samples.astype(float)
-    force = np.divide(c.accel_counts, n[None, :, None])
-    force /= imu.accel_lsb_per_m_s2  # in place: one (R, K, 3) array, not two
+    gyro, force = np.empty((R, t_s.size)), np.empty((R, t_s.size, 3))
+    _counts_to_si(c.gyro_counts, c.accel_counts, c.samples, imu.gyro_lsb_per_rad_s, imu.accel_lsb_per_m_s2, gyro,
+                  force)
     return NodeSignals(
         t_s=t_s,
-        gyro_rad_s=c.gyro_counts[:, :, 2] / n / imu.gyro_lsb_per_rad_s,
+        gyro_rad_s=gyro,
         true_bias_rad_s=c.true_bias_rad_s,
         true_yaw_rad=att.yaw_rad,
         true_inclination_rad=att.inclination_rad,
@@ -76,6 +77,19 @@ def node_signals(
         accel_clipped_samples=c.accel_clipped_samples,
         reference_error_rad=reference_error_rad(scenario, streams, node_index),
     )
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def _counts_to_si(gyro_counts, accel_counts, samples, gyro_lsb, accel_lsb, gyro_out, force_out) -> None:
+    """gyro[r, k] = gyro_counts[r, k, z] / n_k / S_g and force[r, k, i] = accel_counts[r, k, i] / n_k / S_a (module
+    docstring) in one pass: the same two IEEE divisions, in that order, as numpy's expressions (the int64 sums
+    converted to float first, as numpy does), without their temporaries."""
+    for r in range(gyro_out.shape[0]):
+        for k in range(gyro_out.shape[1]):
+            n = float(samples[k])
+            gyro_out[r, k] = float(gyro_counts[r, k, 2]) / n / gyro_lsb
+            for i in range(3):
+                force_out[r, k, i] = float(accel_counts[r, k, i]) / n / accel_lsb
 
 
 def reference_error_rad(scenario: Scenario, streams: RunStreams, node_index: int) -> np.ndarray | None:
