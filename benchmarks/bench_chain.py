@@ -301,10 +301,10 @@ hour (~2 min) once."""
 
 def drilling_day_1000() -> dict:
     """``scenarios/perf/drilling_day_1000.toml`` (issue 20): the whole day, :data:`DAY_RUNS` whole ``nodesim run``
-    processes with default outputs (streamed: wall, peak RSS), if the memory guard lets it run here, else its estimate; then its
-    first hour and first two hours the same way, the hour against the bare SimPy skeleton process with the same
-    node-ticks (``drilling_day_first_1h_node_ticks_per_s_vs_skeleton``: the same work on each side; the skeleton's
-    whole day would take ~45 min); the day's node-ticks per second against the chain100 skeleton's
+    processes with default outputs (streamed: wall, peak RSS), if the memory guard lets it run here, else its
+    estimate; then its first hour and first two hours the same way, the hour against the bare SimPy skeleton
+    process with the same node-ticks (``drilling_day_first_1h_node_ticks_per_s_vs_skeleton``: the same work on each
+    side; the skeleton's whole day would take ~45 min); the day's node-ticks per second against the chain100 skeleton's
     (:func:`_day_rate_vs_skeleton`, issue 20's ``drilling_day_node_ticks_per_s_vs_skeleton``); and
     ``drilling_10_tubes`` on both engines."""
     import json

@@ -43,7 +43,7 @@ from numba import njit
 
 from nodesim.chain.compiled.mac_kernel import time_row, transfer
 from nodesim.chain.compiled.prefetch import AHEAD, prefetch
-from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, STATIC, TOP
+from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, RUNNING, STATIC, TOP
 
 DONE, INBOX_FULL = 0, 2
 
@@ -66,9 +66,9 @@ CHUNK_EVENTS = 1 << 22
 
 
 def running_ticks(codes: np.ndarray, t_s: np.ndarray, dead_at_s: float) -> np.ndarray:
-    """(K,) bool: the node ran that tick (the same in every realization): a ``RUNNING`` code (:func:`_running`) on a
+    """(K,) bool: the node ran that tick (the same in every realization): a :data:`.tick_plan.RUNNING` code on a
     tick that was an event, before the node's death (:func:`next_events` queues a node's ticks while T < dead_at)."""
-    return ((codes == ASK) | (codes == TOP) | (codes == RUN)) & (t_s < dead_at_s)
+    return np.isin(codes, RUNNING) & (t_s < dead_at_s)
 
 
 @njit(cache=True, inline="always")
@@ -238,8 +238,8 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
         if ring > AHEAD:  # the entries of the event AHEAD on in the ring, asked for now (:mod:`.prefetch`)
             a = head + AHEAD if head + AHEAD < N else head + AHEAD - N
             m = r_n[a]
-            prefetch(T, (m, next_k[m]), False)
-            prefetch(plan, (m, next_k[m]), False)
+            prefetch(T, (m, next_k[m]))
+            prefetch(plan, (m, next_k[m]))
         if ring > 0 and (size == 0 or _less(r_t[head], r_e[head], h_t[0], h_e[0])):
             now, n = r_t[head], r_n[head]
             head = head + 1 if head + 1 < N else 0

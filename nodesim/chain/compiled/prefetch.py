@@ -4,7 +4,7 @@ The compiled engine's phase 1 takes the run's events in time order, one node aft
 entry of (N, K) tables: every entry lies on another node's row, so on another page, and each access is a cache and
 TLB miss the loop waits for (:mod:`nodesim.chain.compiled.events`).  Which entries the next events will touch is
 known some events ahead (the ring of upcoming ticks), so the loop asks for them early: :func:`prefetch` is LLVM's
-``llvm.prefetch`` intrinsic (x86 ``prefetcht0`` / ``prefetchw``), a hint that loads the entry's cache line
+``llvm.prefetch`` intrinsic (x86 ``prefetcht0``), a read hint that loads the entry's cache line
 (walking the page tables on a TLB miss) without waiting and without any effect on the values computed.  Measured
 on the drilling day's event order (:func:`~nodesim.chain.compiled.events.next_events`, 146.5 M events,
 2026-12-05): 5.4 s without, 3.5 s with the entries of the event 32 ahead.  (Phase 1's scattered record writes,
@@ -23,14 +23,11 @@ AHEAD = 32
 
 
 @intrinsic
-def prefetch(typingctx, array, index, write):
-    """Hint that ``array[index]`` (``index`` a tuple of integers, one per dimension, in range) will be read
-    (``write`` False) or written (True) soon; no effect on any value."""
+def prefetch(typingctx, array, index):
+    """Hint that ``array[index]`` (``index`` a tuple of integers, one per dimension, in range) will be read soon; no
+    effect on any value."""
     if not isinstance(array, types.Array) or not isinstance(index, types.BaseTuple) or len(index) != array.ndim:
         return None
-    if not isinstance(write, types.BooleanLiteral):
-        return None
-    rw = 1 if write.literal_value else 0
 
     def codegen(context, builder, signature, args):
         array_type, index_type = signature.args[0], signature.args[1]
@@ -42,8 +39,8 @@ def prefetch(typingctx, array, index, write):
         i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
         fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
                                             "llvm.prefetch.p0")
-        # (address, read 0 / write 1, locality 3: keep in every cache level, data cache 1)
-        builder.call(fn, [builder.bitcast(ptr, i8p), ir.Constant(i32, rw), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        # (address, read 0, locality 3: keep in every cache level, data cache 1)
+        builder.call(fn, [builder.bitcast(ptr, i8p), ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
         return context.get_dummy_value()
 
-    return types.void(array, index, write), codegen
+    return types.void(array, index), codegen
