@@ -246,7 +246,8 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                                      links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
                                      out, recs[slot], cursor, r0, r1)
             status = max(threads.map_chunks(lanes, R))
-            spill.drop(net.scratch)  # the pages of the tables read and written so far leave the process
+            if (e_first + chunk[0].size) // DROP_EVERY_EVENTS > e_first // DROP_EVERY_EVENTS:
+                spill.drop(net.scratch)  # the pages of the tables read and written so far leave the process
             return status
 
         def scatter(chunk: tuple, slot: int) -> None:
@@ -257,6 +258,11 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
 
+
+DROP_EVERY_EVENTS = 1 << 22
+"""Phase 1 takes the scratch tables' pages out of the process (:func:`nodesim.chain.scratch.drop`) each time its
+events pass a multiple of this: what stays mapped in between (~15 bytes an event: the tick tables read, the records
+written) is bounded, and a node's partly written page is not read back from the file after every chunk."""
 
 RECORD_BUFFER_BYTES = 64 * 2**20
 """Phase 1's records by event (:func:`.events.scatter_records`, 6 bytes an event and realization) take at most about
