@@ -129,3 +129,40 @@ def test_only_a_streamed_run_spills(monkeypatch):
     assert Network(scenario, attach_signals=False).scratch is None
     net = Network(scenario, attach_signals=False, spill=True)
     assert net.scratch is not None and net.tick_table.base is not None
+
+
+def test_phase_1_drops_the_tables_pages_once_per_drop_interval_whatever_its_chunks(tmp_path, monkeypatch):
+    """Phase 1 takes the scratch tables' pages out each time its events pass a multiple of DROP_EVERY_EVENTS (not
+    after every chunk, which made a node's partly written page be read back after each): here chunks of 7 events
+    and a drop every 50; the run directory is the same as with the tables in memory."""
+    from nodesim.chain.compiled import engine
+
+    scenario = load_scenario(FIELD)[0].with_overrides(**{"chain.nodes": 4})
+    drops, phase_1, events = [], [], []
+    real_drop, real_resolve = scratch.drop, engine._resolve
+
+    def drop(arrays):
+        drops.append(bool(phase_1))
+        real_drop(arrays)
+
+    def resolve(*args, **kwargs):
+        phase_1.append(True)
+        try:
+            result = real_resolve(*args, **kwargs)
+        finally:
+            phase_1.clear()
+        events.append(result[0])
+        return result
+
+    monkeypatch.setattr(scratch, "drop", drop)  # the engine's (``spill.drop``); a table's fill drops its own slices
+    monkeypatch.setattr(engine, "_resolve", resolve)
+    monkeypatch.setattr(engine.ev, "CHUNK_EVENTS", 7)
+    monkeypatch.setattr(engine, "DROP_EVERY_EVENTS", 50)
+    monkeypatch.setattr(scratch, "SPILL_MIN_BYTES", 0)
+    simulate_scenario(scenario, None, stream_to=tmp_path / "s1").save(tmp_path / "disk")
+    assert events[0] > 200 and sum(drops) == events[0] // 50
+    monkeypatch.setattr(scratch, "SPILL_MIN_BYTES", 2**62)
+    simulate_scenario(scenario, None, stream_to=tmp_path / "s2").save(tmp_path / "memory")
+    x, y = load_run(tmp_path / "disk"), load_run(tmp_path / "memory")
+    x.summary.pop("timing"), y.summary.pop("timing")
+    assert x == y
