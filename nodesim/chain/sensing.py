@@ -125,7 +125,7 @@ def shared_truth(scenario: Scenario, motion: ChainMotion, dt_s: float) -> Sample
         return last[2]
     rate = imu.sample_rate_hz
     truth = SampleTruth(imu, motion, math.floor(-dt_s * rate) + 1, math.floor(scenario.simulation.duration_s * rate) + 1,
-                        shared=True)
+                        shared=True, keep_readings=imu.sampling != "tick_sum")  # tick sums need only its sums
     _LAST_TRUTH[0] = (weakref.ref(motion), key, truth)
     return truth
 

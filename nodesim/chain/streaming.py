@@ -13,7 +13,7 @@ the surveys it sent (:func:`nodesim.chain.network.simulate_chain` ``on_node``). 
     (:func:`nodesim.chain.run_tables.node_survey_rows`).
 The compiled engine's whole-run tables (tick times, tick plan, phase 1's records: which estimate reaches which tick)
 scale with the run's node-ticks; a large run keeps them on disk (:mod:`nodesim.chain.scratch`).  What still grows
-with the duration in memory is the shared per-sample sensor truth (~2.7 kB a tick) and the few nodes' whole-run
+with the duration in memory is the shared per-sample sensor truth (~1.1 kB a tick) and the few nodes' whole-run
 arrays phase 2 and the outputs hold at a time (a node's readings, records and table rows).
 """
 

@@ -30,7 +30,9 @@ The tick-sum normals of every tick are drawn (used or not), so the fallback of o
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -222,11 +224,19 @@ class SampleTruth:
     (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale), all in one compiled pass
     (:func:`_sample_sums`).  One per run where every node has the same attitude (``shared``: the motion's
     :attr:`~nodesim.motion.timelines.ChainMotion.shared_attitude`, the lab's rigid string or a drilling string in a
-    straight hole, :func:`nodesim.chain.sensing.shared_truth`), else one per node (its ``attitude``)."""
+    straight hole, :func:`nodesim.chain.sensing.shared_truth`), else one per node (its ``attitude``).
+
+    Without ``keep_readings`` it keeps only the prefix sums (and the maxima) after the pass: half the memory (32
+    bytes a sample instead of 64: the drilling day's shared truth 215 instead of 430 MB), and :meth:`slice`, which
+    only a tick drawn per sample needs, computes the readings of the samples asked for again, the same values
+    (each sample's reading depends on its own time only: tested)."""
 
     def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0,
-                 shared: bool = False):
+                 shared: bool = False, keep_readings: bool = True):
         self.j_lo, self.j_hi = j_lo, j_hi
+        # what :meth:`slice` needs to compute readings again (the motion by weak reference: the run holds it, and a
+        # truth cached between runs, :func:`nodesim.chain.sensing.shared_truth`, must not keep it alive)
+        self._imu, self._motion, self._node_index, self._shared = imu, weakref.ref(motion), node_index, shared
         t_j = np.arange(j_lo, j_hi, dtype=np.int64) / imu.sample_rate_hz
         rate = np.ascontiguousarray(motion.rotation.rate_rad_s(t_j), dtype=float)
         att = motion.shared_attitude(t_j) if shared else motion.attitude(node_index, t_j)
@@ -238,12 +248,18 @@ class SampleTruth:
         _sample_sums(inc, azi, yaw, rate, imu.gyro_lsb_per_rad_s, imu.accel_lsb_per_m_s2, self.u_gz, self.u_a,
                      self._sum_gz, self._sum_a, umax)
         self.umax = (np.array([0.0, 0.0, umax[0]]), umax[1:].copy())
+        if not keep_readings:
+            self.u_gz = self.u_a = None
 
     def covers(self, a: int, b: int) -> bool:
         return self.j_lo <= a and b <= self.j_hi
 
     def slice(self, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-        """(z-gyro (S,), accelerometer (S, 3)) truth of the samples a <= j < b (views)."""
+        """(z-gyro (S,), accelerometer (S, 3)) truth of the samples a <= j < b (views; computed again where the
+        readings were not kept)."""
+        if self.u_gz is None:
+            again = SampleTruth(self._imu, self._motion(), a, b, self._node_index, self._shared)
+            return again.u_gz, again.u_a
         return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo]
 
     def tick_sums(self, first: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -288,7 +304,7 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
     starts = np.concatenate([[0], np.cumsum(n)[:-1]]).astype(np.int64)
     if truth is None or not truth.covers(j0, j0 + S):
         truth = SampleTruth(imu, motion, j0, j0 + S, node_index)
-    u_gz, u_a = truth.slice(j0, j0 + S)
+    readings = functools.cache(lambda: truth.slice(j0, j0 + S))  # (u_gz, u_a): only a tick drawn per sample reads them
     tilt = streams.sensor_normals(R, node_index, "tilt", 2) * imu.tilt_sigma_rad
     T = tilt_matrices(tilt)
     # gyro bias (LSB): turn-on + residual after the filter start (from sample j_start on) + Gauss-Markov per tick
@@ -320,8 +336,8 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
                                                          gm_z, r0, r1), R)
         draw(np.broadcast_to(truth.umax[0][2], (K,)), np.broadcast_to(truth.umax[1], (K, 3)))  # views, no copies
         if g_sel.any() or a_sel.any():
-            draw(np.maximum.reduceat(np.abs(u_gz), starts),
-                 np.ascontiguousarray(np.maximum.reduceat(np.abs(u_a), starts, axis=0)))
+            draw(np.maximum.reduceat(np.abs(readings()[0]), starts),
+                 np.ascontiguousarray(np.maximum.reduceat(np.abs(readings()[1]), starts, axis=0)))
     else:
         g_sel = a_sel = np.ones((R, K), dtype=bool)
         gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
@@ -334,11 +350,11 @@ def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_in
     def gyro_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
         after = (j0 + idx >= j_start)[:, None]
         u = np.zeros((idx.size, 3))
-        u[:, 2] = u_gz[idx]
+        u[:, 2] = readings()[0][idx]
         return gain * (u @ T[r].T) + b_on + _gauss_markov_bias(g_states[r].copy(), *gm, K)[ticks] + b_res * after
 
     def accel_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
-        return u_a[idx] @ T[r].T
+        return readings()[1][idx] @ T[r].T
 
     g_clip = _per_sample(gyro, g_sel, gyro_mu, imu.gyro_sigma_lsb, g_lo, g_hi, starts, n, streams, node_index,
                          "gyro_samples")

@@ -50,6 +50,48 @@ def test_prefix_sum_tick_sums_match_direct_sums():
     assert bound < 1e-4  # LSB: far below the count's rounding
 
 
+def test_a_truth_without_its_readings_computes_the_same_readings_again():
+    """A shared truth that keeps only its prefix sums (``keep_readings=False``: the tick-sum run's) gives the
+    readings of any range of samples computed again, equal to the kept ones, and the same tick sums and maxima."""
+    scenario = Scenario.model_validate({"chain": {"nodes": 2}, "simulation": {"duration_s": 1200.0}})
+    imu = chain_imu.ChainImu.from_scenario(scenario)
+    motion = build_motion(scenario)
+    j_hi = int(1200 * imu.sample_rate_hz)
+    kept = chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True)
+    lean = chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True, keep_readings=False)
+    assert lean.u_gz is None and lean.u_a is None
+    rng = np.random.default_rng(3)
+    for _ in range(12):
+        a = int(rng.integers(-34, j_hi - 1))
+        b = int(rng.integers(a + 1, min(j_hi, a + 20_000) + 1))
+        for x, y in zip(kept.slice(a, b), lean.slice(a, b)):
+            assert np.array_equal(x, y)
+    t = np.arange(1, 2000) / 1.9
+    first, n = chain_imu.tc.sample_windows(t, 1 / 1.9, imu.sample_rate_hz)
+    for x, y in zip(kept.tick_sums(first, n), lean.tick_sums(first, n)):
+        assert np.array_equal(x, y)
+    assert all(np.array_equal(x, y) for x, y in zip(kept.umax, lean.umax))
+
+
+def test_node_counts_falling_back_per_sample_read_the_truth_s_readings_again_the_same():
+    """Near the gyro's full scale (250 deg/s, turning at 249) ticks fall back to per-sample sums, which read the
+    truth's readings: from a truth that kept them or one that computes them again, the same counts."""
+    scenario = Scenario.model_validate({"chain": {"nodes": 2}, "simulation": {"duration_s": 400.0, "realizations": 2},
+                                        "motion": {"fast_rate_deg_s": 249.0, "fast_turns": 10.0},
+                                        "metrics": {"window_start_s": 300.0, "window_end_s": 400.0}})
+    imu = chain_imu.ChainImu.from_scenario(scenario)
+    motion = build_motion(scenario)
+    t = np.arange(1, 750) / 1.9 + 0.013
+    j_hi = int(400 * imu.sample_rate_hz) + 1
+    out = []
+    for keep in (True, False):
+        truth = chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True, keep_readings=keep)
+        out.append(chain_imu.node_counts(imu, motion, RunStreams(seed=9, n_nodes=2), 1, t, 1 / 1.9, 2, truth))
+    assert out[0].per_sample_ticks > 0  # it did fall back
+    for name in ("gyro_counts", "accel_counts", "gyro_clipped_samples", "true_bias_rad_s"):
+        assert np.array_equal(getattr(out[0], name), getattr(out[1], name))
+
+
 def test_a_finished_run_frees_its_network_without_the_cyclic_collector():
     """Nodes refer to their network weakly: once a run returns, its network (and every R-sized array only it
     held) goes when its last reference does, not at the next cyclic collection."""
