@@ -324,3 +324,35 @@ def test_a_straight_hole_shares_one_attitude_a_curved_one_or_a_turn_before_inser
     assert build_motion(_field_drilling()).shared_attitude is None  # the scenario's build section
     short_stop = straight.with_overrides(**{"motion.survey_stop_s": 0.5, "motion.survey_settle_s": 0.25})
     assert build_motion(short_stop).shared_attitude is None
+
+
+@settings(max_examples=40, deadline=None)
+@given(inc_deg=st.floats(0.0, 180.0), azi_deg=st.floats(0.0, 359.999), stations=st.integers(2, 6),
+       md=st.lists(st.one_of(st.floats(-50.0, 700.0), st.just(math.nan), st.just(math.inf), st.just(-math.inf)),
+                   min_size=1, max_size=30))
+def test_a_straight_hole_s_attitude_and_twist_are_the_interpolations_bit_for_bit(inc_deg, azi_deg, stations, md):
+    """In a straight hole (every station at one inclination and azimuth) attitude_along and twist_rad return the
+    constant without interpolating: the same bits as np.interp on their grids (NaN where the depth is NaN, the end
+    values beyond the grid), arrays and scalars alike."""
+    wp = Wellpath(np.linspace(0.0, 600.0, stations), np.full(stations, inc_deg * DEG), np.full(stations, azi_deg * DEG))
+    grid, inc, azi = wp._attitude_grid
+    assert np.all(inc == wp.inclination_rad[0])  # a straight interval's attitude is its stations', exactly
+    assert np.all(azi == np.remainder(wp.azimuth_rad[0], 2.0 * math.pi))
+    assert wp._constant_attitude is not None  # so attitude_along does not interpolate
+    for x in (np.array(md), np.float64(md[0])):
+        want_azi = np.interp(x, grid, azi)
+        want_azi = want_azi if wp._azimuth_grid_wrapped else np.remainder(want_azi, 2.0 * math.pi)
+        got_inc, got_azi = wp.attitude_along(x)
+        tg, tv = wp._twist_grid
+        for got, want in ((got_inc, np.interp(x, grid, inc)), (got_azi, want_azi), (wp.twist_rad(x), np.interp(x, tg, tv))):
+            assert np.shape(got) == np.shape(want) and type(got) is type(want)
+            assert np.array_equal(got, want, equal_nan=True)
+            assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def test_a_curved_hole_s_attitude_is_interpolated():
+    wp = Wellpath(np.array([0.0, 100.0, 200.0]), np.array([0.0, 10.0, 20.0]) * DEG, np.array([30.0, 30.0, 40.0]) * DEG)
+    assert wp._constant_attitude is None
+    md = np.linspace(0.0, 200.0, 77)
+    grid, inc, azi = wp._attitude_grid
+    assert np.array_equal(wp.attitude_along(md)[0], np.interp(md, grid, inc))
