@@ -137,10 +137,9 @@ class Wellpath:
         within a degree of vertical (where the inclination has a V and the azimuth swings) up to 1e-5 rad, the
         azimuth error weighted by sin I (what reaches the sensors) likewise.  Both engines and every truth of a
         node (its sensors, its errors) use this one function."""
-        if self.md_m.size == 1:
-            md = np.asarray(md_m, dtype=float)
-            return np.full_like(md, self.inclination_rad[0]), np.full_like(md, self.azimuth_rad[0])
         md = np.asarray(md_m, dtype=float)
+        if self.md_m.size == 1:
+            return np.full_like(md, self.inclination_rad[0]), np.full_like(md, self.azimuth_rad[0])
         if self._constant_attitude is not None:  # a straight hole: the interpolations' values, without the searches
             inc0, azi0 = self._constant_attitude
             return _constant_like(md, inc0), _constant_like(md, azi0)
