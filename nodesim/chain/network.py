@@ -93,6 +93,13 @@ class Network:
         self.extrapolate_rate = c.rate_compensation == "extrapolated"
         self.forward_every_tick = c.forward == "every_tick"
         self.motion = build_motion(scenario)
+        self._truth = None
+        if spill:  # a streamed compiled run: the sensors' shared truth on another core from here on (build_shared_truth)
+            from concurrent.futures import ThreadPoolExecutor
+
+            pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-truth")
+            self._truth = pool.submit(shared_truth, scenario, self.motion, self.dt_s)
+            pool.shutdown(wait=False)  # its thread ends with the task
         self.encoder = EncoderReader.from_scenario(scenario, self.motion)
         R = self.R = scenario.simulation.realizations
         streams = RunStreams(seed=scenario.seed, n_nodes=c.nodes, first_realization=scenario.simulation.first_realization)
@@ -178,7 +185,11 @@ class Network:
 
     def build_shared_truth(self) -> None:
         """Compute the per-sample truth the nodes' readings share (:func:`nodesim.chain.sensing.shared_truth`, kept
-        for the run) now: the compiled engine has it built on another thread while its phase 1 runs."""
+        for the run) now, or wait for it: a streamed compiled run has it built on another thread from its start
+        (~1.5 s of the drilling day, beside the rest of the set-up, which runs on one core, and phase 1)."""
+        if self._truth is not None:
+            self._truth.result()  # (raises what the thread raised)
+            return
         shared_truth(self.scenario, self.motion, self.dt_s)
 
     def _signals_later(self, todo: list[int]):
@@ -441,8 +452,6 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         filter_start_s=node.timeline.filter_start_s,
         accel_sigma_m_s2=node.sig.accel_sigma_m_s2,
         firmware_overflows=_overflows(node),
-        gyro_rad_s=node.sig.gyro_rad_s,
-        specific_force=node.sig.specific_force,
         gyro_counts=node.sig.gyro_counts,
         accel_counts=node.sig.accel_counts,
         samples=node.sig.samples,
@@ -453,6 +462,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
         estimate_frames=node.frames,
         reference_error_rad=node.sig.reference_error_rad,
         singular_ticks=getattr(node.kf if node.kf is not None else node.fw, "singular_ticks", None),
+        readings=node.sig,
     )
 
 
@@ -477,5 +487,20 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     if scenario.simulation.realizations > 1:
         keep_freed_memory()  # a batch reuses the pages the last one freed (nodesim.chain.allocator)
     if choose_engine(scenario) == "compiled":
-        return simulate_compiled(Network(scenario, attach_signals=False, spill=on_node is not None), progress, on_node)
+        held = [Network(scenario, attach_signals=False, spill=on_node is not None)]
+        try:
+            return simulate_compiled(held[0], progress, on_node)
+        finally:
+            if on_node is not None:
+                _release_later(held)
     return Network(scenario).run(progress, on_node=on_node)
+
+
+def _release_later(held: list) -> None:
+    """Drop the network in ``held`` (its only reference) on a thread of its own: a streamed run's whole-run tables
+    are files mapped into memory (:mod:`nodesim.chain.scratch`), and freeing them (the drilling day's 2.5 GB: their
+    pages and blocks) took ~0.8 s after the run, before its outputs could be written; the run's end now overlaps it.
+    The interpreter waits for the thread before it exits."""
+    import threading
+
+    threading.Thread(target=held.clear, name="nodesim-release").start()

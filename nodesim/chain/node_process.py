@@ -107,7 +107,7 @@ class ChainNode:
         """The node's sensor readings and its per-tick records (R, K): the SimPy engine attaches every node's at
         once; the compiled engine can attach them node by node as its phase 2 reaches the node
         (:meth:`release` drops them again)."""
-        R, K = signals.gyro_rad_s.shape
+        R, K = signals.shape
         net = self.net
         self.sig = signals
         self.inbox: list[EstimatePacket] = []
@@ -144,8 +144,8 @@ class ChainNode:
 
     def process(self):
         env, sig, tl = self.net.env, self.sig, self.timeline
-        self.applied = np.zeros(sig.gyro_rad_s.shape, dtype=bool)
-        self.age = np.full(sig.gyro_rad_s.shape, np.nan)
+        self.applied = np.zeros(sig.shape, dtype=bool)
+        self.age = np.full(sig.shape, np.nan)
         for k, t in enumerate(self.t_s):
             if t >= self.dead_at_s:
                 return

@@ -39,8 +39,6 @@ class NodeRun:
     accel_sigma_m_s2: float
     firmware_overflows: dict  # fixed-point saturation/overflow events per site (empty for the float filter)
     # what the firmware read and the references it used (for replay logs, nodesim.replay.chain_log)
-    gyro_rad_s: np.ndarray | None = None  # (R, K) tick-averaged z gyro
-    specific_force: np.ndarray | None = None  # (R, K, 3) sensor frame
     gyro_counts: np.ndarray | None = None  # (R, K, 3) int64 per-tick sums of the int16 samples
     accel_counts: np.ndarray | None = None  # (R, K, 3) int64
     samples: np.ndarray | None = None  # (K,) int64 samples per tick
@@ -54,6 +52,18 @@ class NodeRun:
     reference_error_rad: np.ndarray | None = None
     # (R,) int64: the 6-state filter's ticks inside its singularity margin (filter.states = 6); None: 2-state filter
     singular_ticks: np.ndarray | None = None
+    # the sensor readings (nodesim.chain.sensing.NodeSignals) behind gyro_rad_s and specific_force
+    readings: object | None = None
+
+    @property
+    def gyro_rad_s(self) -> np.ndarray | None:
+        """(R, K) tick-averaged z gyro [rad/s] (converted from the counts when first read)."""
+        return None if self.readings is None else self.readings.gyro_rad_s
+
+    @property
+    def specific_force(self) -> np.ndarray | None:
+        """(R, K, 3) tick-averaged specific force [m/s^2], sensor frame (converted when first read)."""
+        return None if self.readings is None else self.readings.specific_force
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from nodesim import threads
 from nodesim.chain.metrics import node_metrics
 from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
 from nodesim.chain.run_tables import TIMESERIES_COLUMNS, empty_timeseries, node_timeseries, node_survey_rows
-from nodesim.chain.yaw_plot import YawPlotData
+from nodesim.chain.yaw_plot import YawPlotData, import_matplotlib
 from nodesim.io.rundir import csv_text, file_mode
 from nodesim.io.write_behind import WriteBehind
 from nodesim.motion.timelines import ChainMotion
@@ -182,6 +182,7 @@ class NodeStream:
         self.scenario, self.motion, self.table = scenario, motion, table
         n, output = scenario.chain.nodes, scenario.output
         self.plot = YawPlotData([i for i in range(1, n + 1) if output.keeps_node(i, n)], scenario.simulation.duration_s)
+        self._plotting = False
 
     def __call__(self, run: NodeRun, surveys: list[GroundSurvey]) -> NodeSummary:
         s = self.scenario
@@ -189,6 +190,9 @@ class NodeStream:
             rows = node_timeseries(run, 0, s.output.tick_step)
             if self.table is not None:
                 self.table.write(rows)
+            if not self._plotting:  # the first kept node: ``nodesim run`` draws the figure from these rows at its end
+                import_matplotlib()
+                self._plotting = True
             self.plot.add(rows)
         return NodeSummary(
             node_id=run.node_id,

@@ -131,6 +131,14 @@ class YawPlotData:
         return (centres[have], lo[have], hi[have]) if have.any() else None
 
 
+def import_matplotlib() -> None:
+    """Import what :func:`yaw_figure` and its PNG need (~0.3 s): a streamed run (``nodesim run``) does it on its
+    output thread with its first node, beside phase 2, rather than after the simulation, when no other work is
+    left to overlap it."""
+    import matplotlib.backends.backend_agg  # noqa: F401 - savefig's PNG canvas
+    import matplotlib.figure  # noqa: F401
+
+
 def yaw_figure(data: YawPlotData, rotation_end_s: float, title: str):
     """Top: yaw error [deg]; bottom: bias estimate [deg/s] with the true bias dashed, per drawn node (module
     docstring); the end of the last rotation as a dotted line.  Ticks where a node's filter is not running are not

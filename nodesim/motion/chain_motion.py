@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -33,8 +34,23 @@ def lab_profile(scenario: Scenario) -> LabRotationProfile:
     )
 
 
+_LAST_MOTION: list = [None]  # (weakref to the scenario, its ChainMotion) of the latest build_motion
+
+
 def build_motion(scenario: Scenario) -> ChainMotion:
-    """The motion of ``scenario`` (lab or drilling)."""
+    """The motion of ``scenario`` (lab or drilling), built once per scenario object: a run asks for it four times
+    (the memory estimate, its disk needs, the outputs, the network), and a drilling day's takes ~0.2 s to build,
+    before any core but one has work.  Both are frozen (a Scenario cannot change, a ChainMotion neither), so the
+    latest one is kept, as :func:`nodesim.chain.sensing.shared_truth` keeps its truth."""
+    last = _LAST_MOTION[0]
+    if last is not None and last[0]() is scenario:
+        return last[1]
+    motion = _build_motion(scenario)
+    _LAST_MOTION[0] = (weakref.ref(scenario), motion)
+    return motion
+
+
+def _build_motion(scenario: Scenario) -> ChainMotion:
     if scenario.motion.kind == "drilling":
         return drilling_motion(scenario)
     profile = lab_profile(scenario)

@@ -486,21 +486,15 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     read them (two nodes later: the fallback reads the next-but-one).  The ChainRun then has no ``nodes``."""
     K = np.array([n.t_s.size for n in net.nodes], dtype=np.int64)
     T = net.tick_table  # (N, K_max): node n's tick times T[n, :K[n]] (its t_s)
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(1, thread_name_prefix="nodesim-truth") as pool:
-        # streamed: the sensors' shared truth (~1.5 s of the drilling day) on another core while the tick plan and
-        # phase 1 run on this one (from the start: phase 1 keeps that core busy with its events thread)
-        truth = pool.submit(net.build_shared_truth) if on_node is not None else None
-        plan = tp.tick_plan(net.nodes, int(K.max()), net.scratch)
-        survey_plan = _survey_plan(net, plan)
-        links = _Links(net, bool(survey_plan[0]))
-        spill.drop(net.scratch)  # the whole-run tables' pages read so far leave memory (where they are on disk)
-        if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
-            net.attach_signals(range(net.n_nodes))
-        net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
-        if truth is not None:
-            truth.result()
+    # (streamed: the sensors' shared truth is being built on another core since the network was made)
+    plan = tp.tick_plan(net.nodes, int(K.max()), net.scratch)
+    survey_plan = _survey_plan(net, plan)
+    links = _Links(net, bool(survey_plan[0]))
+    spill.drop(net.scratch)  # the whole-run tables' pages read so far leave memory (where they are on disk)
+    if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
+        net.attach_signals(range(net.n_nodes))
+    net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
+    net.build_shared_truth()  # (waits for it)
     spill.drop(net.scratch)
     net.engine = "compiled"
     links.store(stats)

@@ -43,7 +43,7 @@ from numba import njit
 
 from nodesim.chain.compiled.mac_kernel import time_row, transfer
 from nodesim.chain.compiled.prefetch import AHEAD, prefetch
-from nodesim.chain.compiled.tick_plan import ASK, HOLD, RUN, RUNNING, STATIC, TOP
+from nodesim.chain.compiled.tick_plan import ASK, HOLD, IS_RUNNING, RUN, STATIC, TOP
 
 DONE, INBOX_FULL = 0, 2
 
@@ -72,7 +72,7 @@ after every chunk (the day's phase 1: 7.7 s with 1 M-event chunks against 7.2-8.
 def running_ticks(codes: np.ndarray, t_s: np.ndarray, dead_at_s: float) -> np.ndarray:
     """(K,) bool: the node ran that tick (the same in every realization): a :data:`.tick_plan.RUNNING` code on a
     tick that was an event, before the node's death (:func:`next_events` queues a node's ticks while T < dead_at)."""
-    return np.isin(codes, RUNNING) & (t_s < dead_at_s)
+    return IS_RUNNING[codes] & (t_s < dead_at_s)
 
 
 @njit(cache=True, inline="always")

@@ -22,6 +22,9 @@ from nodesim.chain import scratch as spill
 
 ABSENT, STATIC, START, HOLD, ASK, TOP, RUN = 0, 1, 2, 3, 4, 5, 6
 RUNNING = (ASK, TOP, RUN)  # the ticks the SimPy engine marks ``running``
+IS_RUNNING = np.isin(np.arange(RUN + 1), RUNNING)
+"""``IS_RUNNING[code]``: whether a tick of that code is a :data:`RUNNING` one (a look-up, ~4x faster than ``np.isin``
+on a node's codes: ~1 ms a node of the drilling day)."""
 
 
 def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: float) -> np.ndarray:
@@ -36,8 +39,10 @@ def node_codes(t_s: np.ndarray, timeline, scheduled: np.ndarray, dead_at_s: floa
     codes = np.full(t.size, RUN, dtype=np.int8)
     top = ticks(timeline.present_from_s, timeline.top_until_s)
     codes[top] = np.where(scheduled[top], ASK, TOP)
-    for a, b in timeline.holds:
-        codes[ticks(a, b)] = HOLD
+    if timeline.holds:  # every hold's slice from one searchsorted each way (a drilling day's node has ~200)
+        a, b = np.array(timeline.holds, dtype=float).T
+        for lo, hi in zip(np.searchsorted(t, a, side="left").tolist(), np.searchsorted(t, b, side="left").tolist()):
+            codes[lo:hi] = HOLD
     n_static = int(np.searchsorted(t, timeline.filter_start_s, side="left"))  # the ticks t < filter start
     codes[:n_static] = STATIC
     if n_static < t.size:
