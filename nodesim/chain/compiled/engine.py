@@ -515,47 +515,66 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
             net.attach_signals([n])
             _run_node(net, n, out, links.bits, plan[n, :K[n]])
             if streams is not None:
-                streams.submit(n)
-                if n >= 2:  # the nodes below n - 1 no longer read node n - 2's estimates
-                    summaries.append(streams.finish(n - 2))
+                streams.submit(n, int(K[n]))
+                # the nodes below n - 1 no longer read node n - 2's estimates: it (and those above) may finish
+                summaries.extend(streams.finish_due(n - 2, OUTPUT_BACKLOG_LONGEST_NODES * int(K.max())))
             if n % DROP_EVERY_NODES == DROP_EVERY_NODES - 1:
                 spill.drop(net.scratch)  # the rows of the nodes done (and those being run, read again as they go on)
             if progress is not None:
                 progress(0.5 + 0.5 * (n + 1) / N)
         if streams is None:
             return net.result()
-        for n in range(max(N - 2, 0), N):
-            summaries.append(streams.finish(n))
+        summaries.extend(streams.finish_due(N - 1, -1))
     finally:
         if streams is not None:
             streams.close()
     return net.result(runs=(), surveys=surveys, summaries=tuple(summaries))
 
 
+OUTPUT_BACKLOG_LONGEST_NODES = 2
+"""A streamed run's phase 2 lets the output thread fall behind by nodes that together tick at most this many times
+the longest node (:meth:`_NodeOutputs.finish_due`): two long nodes, as many short ones as add up to that.  A drilling
+day starts phase 2 with the ~215 nodes inserted during the day, the first ones short, whose output steps (per node
+costs in Python: rows, metrics, survey rows) outlast their filters: with a fixed lag of two nodes, the filters
+waited for them (~1 s at one core); with long nodes it is the same two as before, so the same peak memory."""
+
+
 class _NodeOutputs:
     """A streamed run's node steps (:meth:`Network.stream_node`: the node's records, its surveys' frames, ``on_node``)
     on one worker thread while phase 2 goes on with the next nodes, in node order (the table's order); with one
-    thread (``NODESIM_THREADS = 1``) in the calling thread.  :meth:`finish` waits for node ``n``'s step, drops its
-    arrays and returns its summary: the same values either way."""
+    thread (``NODESIM_THREADS = 1``) in the calling thread.  :meth:`finish_due` waits for nodes' steps, drops their
+    arrays and returns their summaries, in node order: the same values either way."""
 
     def __init__(self, net, on_node: Callable, surveys: list):
         from concurrent.futures import ThreadPoolExecutor
 
         self.net, self.on_node, self.surveys = net, on_node, surveys
         self.pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-outputs") if threads.thread_count() > 1 else None
-        self.pending: dict = {}
+        self.pending: dict = {}  # node index -> (its step: a future, or its summary with one thread; its ticks)
+        self.ticks = 0  # of the pending nodes
 
-    def submit(self, n: int) -> None:
+    def submit(self, n: int, ticks: int) -> None:
         if self.pool is None:
-            self.pending[n] = self.net.stream_node(n, self.on_node, self.surveys)
+            step = self.net.stream_node(n, self.on_node, self.surveys)
         else:
-            self.pending[n] = self.pool.submit(self.net.stream_node, n, self.on_node, self.surveys)
+            step = self.pool.submit(self.net.stream_node, n, self.on_node, self.surveys)
+        self.pending[n] = (step, ticks)
+        self.ticks += ticks
 
-    def finish(self, n: int):
-        done = self.pending.pop(n)
-        summary = done if self.pool is None else done.result()
-        self.net.nodes[n].release()
-        return summary
+    def finish_due(self, last: int, backlog_ticks: int) -> list:
+        """The summaries of the pending nodes up to index ``last``, oldest first, each once its step is done or
+        while the pending nodes' ticks exceed ``backlog_ticks`` (then waited for); their arrays dropped."""
+        out = []
+        while self.pending:
+            n = next(iter(self.pending))
+            step, ticks = self.pending[n]
+            if n > last or not (self.ticks > backlog_ticks or self.pool is None or step.done()):
+                break
+            del self.pending[n]
+            self.ticks -= ticks
+            out.append(step if self.pool is None else step.result())
+            self.net.nodes[n].release()
+        return out
 
     def close(self) -> None:
         if self.pool is not None:
