@@ -50,23 +50,24 @@ def test_the_file_keeps_its_bytes(tmp_path, monkeypatch):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="sync_file_range and mincore are Linux calls")
-def test_what_is_on_disk_leaves_the_page_cache_and_the_newest_stays(tmp_path):
+def test_what_is_on_disk_leaves_the_page_cache_and_the_newest_stays(tmp_path, monkeypatch):
     if _mount_type(tmp_path) in ("tmpfs", "ramfs"):
         pytest.skip("a RAM file system keeps its pages: there is no disk to leave them to")
     path = tmp_path / "f.bin"
     step = write_behind.MIN_STEP_BYTES
+    monkeypatch.setattr(write_behind, "LAG_BYTES", 2 * step)
     with open(path, "wb") as f:
         behind = WriteBehind(path)
-        for _ in range(3):
+        for _ in range(4):
             f.write(os.urandom(step))
             f.flush()
             behind.advance()
-        resident = _resident_pages(path, 3 * step)
+        resident = _resident_pages(path, 4 * step)
         behind.close()
     per_step = step // mmap.PAGESIZE
-    first, second, third = (resident[i * per_step:(i + 1) * per_step] for i in range(3))
-    assert not any(first) and not any(second)  # started by the first and second calls, dropped by the next ones
-    assert all(third)  # started by the last call: its pages are still cached
+    first, second, third, fourth = (resident[i * per_step:(i + 1) * per_step] for i in range(4))
+    assert not any(first) and not any(second)  # started two steps (LAG_BYTES) before a later call: dropped
+    assert all(third) and all(fourth)  # the last LAG_BYTES of the file: still cached
 
 
 def test_without_the_calls_it_does_nothing(tmp_path, monkeypatch):
