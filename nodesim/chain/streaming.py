@@ -185,7 +185,6 @@ class NodeStream:
         self.scenario, self.motion, self.table = scenario, motion, table
         n, output = scenario.chain.nodes, scenario.output
         self.plot = YawPlotData([i for i in range(1, n + 1) if output.keeps_node(i, n)], scenario.simulation.duration_s)
-        self._plotting = False
 
     def __call__(self, run: NodeRun, surveys: list[GroundSurvey]) -> NodeSummary:
         s = self.scenario
@@ -193,9 +192,7 @@ class NodeStream:
             rows = node_timeseries(run, 0, s.output.tick_step)
             if self.table is not None:
                 self.table.write(rows)
-            if not self._plotting:  # the first kept node: ``nodesim run`` draws the figure from these rows at its end
-                import_matplotlib()
-                self._plotting = True
+            import_matplotlib()  # ``nodesim run`` draws the figure from these rows at its end (imported once)
             self.plot.add(rows)
         return NodeSummary(
             node_id=run.node_id,

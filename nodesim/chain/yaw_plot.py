@@ -132,9 +132,9 @@ class YawPlotData:
 
 
 def import_matplotlib() -> None:
-    """Import what :func:`yaw_figure` and its PNG need (~0.3 s): a streamed run (``nodesim run``) does it on its
-    output thread with its first node, beside phase 2, rather than after the simulation, when no other work is
-    left to overlap it."""
+    """Import what :func:`yaw_figure` and its PNG need (~0.3 s the first time, then a look-up): a streamed run
+    (``nodesim run``) calls it on its output thread with each node it keeps, so the import is done beside phase 2
+    rather than after the simulation, when no other work is left to overlap it."""
     import matplotlib.backends.backend_agg  # noqa: F401 - savefig's PNG canvas
     import matplotlib.figure  # noqa: F401
 

@@ -486,7 +486,8 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     read them (two nodes later: the fallback reads the next-but-one).  The ChainRun then has no ``nodes``."""
     K = np.array([n.t_s.size for n in net.nodes], dtype=np.int64)
     T = net.tick_table  # (N, K_max): node n's tick times T[n, :K[n]] (its t_s)
-    # (streamed: the sensors' shared truth is being built on another core since the network was made)
+    # (streamed: the sensors' shared truth is being built on another core since the network was made; the first
+    # readings phase 2 asks for wait for it, Network.build_shared_truth)
     plan = tp.tick_plan(net.nodes, int(K.max()), net.scratch)
     survey_plan = _survey_plan(net, plan)
     links = _Links(net, bool(survey_plan[0]))
@@ -494,7 +495,6 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
         net.attach_signals(range(net.n_nodes))
     net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
-    net.build_shared_truth()  # (waits for it)
     spill.drop(net.scratch)
     net.engine = "compiled"
     links.store(stats)
