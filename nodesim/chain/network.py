@@ -407,9 +407,9 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
     (``[firmware] survey_math``, ``cordic_iterations``); the float filter by
     :func:`nodesim.chain.compiled.surveys.averaged_surveys`."""
     R, K = node.yaw.shape
-    inc = np.full((R, K), np.nan)
-    azi = np.full((R, K), np.nan)
+    inc, azi = np.empty((R, K)), np.empty((R, K))  # NaN before the node's first tick, the survey's from it
     first = int(np.searchsorted(node.sig.t_s, node.timeline.present_from_s))
+    inc[:, :first] = azi[:, :first] = np.nan
     lo, hi = alignment_ticks(alignment_window_s(node.net.scenario), node.sig.t_s[first:])
     if first < K and getattr(node, "yaw_raw", None) is not None:
         # the fixed firmware: survey from the accelerometer count sums and the yaw word, CORDIC or float32

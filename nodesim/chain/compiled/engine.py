@@ -338,7 +338,7 @@ def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
     node.applied = out.applied[:, n, :K]
     node.stale, node.duplicate = out.stale[:, n].copy(), out.duplicate[:, n].copy()
     above = above_nodes(net, n)
-    node.age = np.full((net.R, K), np.nan)
+    node.age = np.empty((net.R, K))  # every tick written below
     ev.forwarded_ages(node.t_s, out.src_offset[:, n, :K], out.src_tick[:, n, :K], above[0].t_s, above[1].t_s, node.age)
     ask, rows = _asks(n, codes, out)
     if ask.size:

@@ -274,7 +274,7 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
 def forwarded_ages(t, src_offset, src_tick, t_above, t_two_above, age) -> None:
     """``age[r, k]`` = t[k] - t_(n-s)[j] where phase 1 gave the node the estimate node n - s (``src_offset`` s = 1, 2)
     read at its tick j (``src_tick``): the age :func:`_select` compared with ``max_update_age_s`` and the SimPy
-    engine records (the same two doubles subtracted); other ticks are left as they are."""
+    engine records (the same two doubles subtracted); NaN at the other ticks (no forwarded estimate)."""
     for r in range(src_offset.shape[0]):
         for k in range(src_offset.shape[1]):
             s = src_offset[r, k]
@@ -282,6 +282,8 @@ def forwarded_ages(t, src_offset, src_tick, t_above, t_two_above, age) -> None:
                 age[r, k] = t[k] - t_above[src_tick[r, k]]
             elif s == 2:
                 age[r, k] = t[k] - t_two_above[src_tick[r, k]]
+            else:
+                age[r, k] = np.nan
 
 
 @njit(cache=True, _nrt=False, nogil=True)

@@ -1,7 +1,7 @@
 """The surveys a chain run (and a replay) reports, resolved and moving-averaged in one compiled pass per node.
 
 For every realization r and tick k (thesis eqs 1.1-1.3, :func:`firmware_model.survey_resolution.resolve`):
-    tau' = atan2(f'_y, f'_x),  I = atan2(h, f'_z) with h = hypot(f'_x, f'_y),  A = (tau' + psi) mod 2 pi,
+    tau' = atan2(f'_y, f'_x),  I = atan2(h, f'_z) with h = sqrt(f'_x^2 + f'_y^2),  A = (tau' + psi) mod 2 pi,
 then the firmware's trailing N-point moving average of I and the circular one of A (through cos A and sin A),
 the first N - 1 outputs averaging what has arrived (:func:`firmware_model.survey_resolution.trailing_moving_average`,
 :func:`~firmware_model.survey_resolution.circular_moving_average`), as running sums (the window as the difference of two
@@ -32,7 +32,7 @@ from nodesim.chain.compiled.angles import mod_two_pi
 
 @njit(cache=True, inline="always")
 def _unit_azimuth(fx: float, fy: float, h: float, psi: float) -> tuple[float, float]:
-    """(cos A, sin A) of A = atan2(f'_y, f'_x) + psi (module docstring); h = hypot(f'_x, f'_y)."""
+    """(cos A, sin A) of A = atan2(f'_y, f'_x) + psi (module docstring); h = sqrt(f'_x^2 + f'_y^2)."""
     c, s = math.cos(psi), math.sin(psi)
     if h > 0.0:
         return (fx * c - fy * s) / h, (fy * c + fx * s) / h
@@ -79,7 +79,7 @@ def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, align_lo: int, alig
             if k > 0:
                 prev = yaw_rad[r, k - 1]
                 psi = prev + 0.5 * (mod_two_pi(psi - prev + math.pi) - math.pi)
-            h = np.hypot(fx, fy)
+            h = math.sqrt(fx * fx + fy * fy)  # eq 1.2 as written (survey_resolution.resolve: not hypot)
             cos_a, sin_a = _unit_azimuth(fx, fy, h, psi)
             s_i += np.arctan2(h, fz)
             s_c += cos_a
