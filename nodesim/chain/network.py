@@ -65,9 +65,14 @@ def node_clock(scenario: Scenario, node_id: int) -> tuple[float, float]:
     return offset, drift
 
 
+def tick_period_s(drift_ppm: float, dt_s: float) -> float:
+    """A node clock's true tick period: dt / (1 + drift 1e-6)."""
+    return dt_s / (1.0 + drift_ppm * 1e-6)
+
+
 def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float) -> np.ndarray:
     """True times of a node's ticks in [0, duration]: offset + k dt / (1 + drift 1e-6)."""
-    period = dt_s / (1.0 + drift_ppm * 1e-6)
+    period = tick_period_s(drift_ppm, dt_s)
     if offset_s > duration_s:
         return np.zeros(0)
     t = np.arange(int(math.floor((duration_s - offset_s) / period + 1e-9)) + 1, dtype=float)  # k exact in float
@@ -140,9 +145,14 @@ class Network:
         if spill and scratch.spills(c.nodes, max(sizes), R, mac.bit_errors):
             self.scratch = scratch.ScratchArrays(scratch.scratch_directory())
         self.tick_table = scratch.zeros(self.scratch, (c.nodes, max(sizes)), float)
+        # node n's tick k is (k + first[n]) period[n] + offset[n] (tick_times' two roundings), where every clock
+        # is such: phase 1 then computes the tick times instead of reading the table (Network.tick_clock)
+        self._clock = (not scenario.faults.clock_step, np.zeros(c.nodes, np.int64), np.zeros(c.nodes),
+                       np.zeros(c.nodes))
         for i, size in enumerate(sizes):
             t = self.tick_table[i, :size]
-            t[:] = self._tick_times(i)
+            t[:] = ticks = self._tick_times(i)
+            self._clock_of(i, ticks)
             if i % scratch.DROP_EVERY_ROWS == scratch.DROP_EVERY_ROWS - 1:
                 scratch.drop(self.scratch)  # the rows written so far leave memory
             node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))
@@ -198,6 +208,28 @@ class Network:
         nodes = self.nodes  # (the nodes refer to the network weakly)
         return threads.map_nodes_later(
             lambda j: node_signals(scenario, motion, streams, todo[j], nodes[todo[j]].t_s, dt), len(todo), self.R)
+
+    def tick_clock(self) -> tuple:
+        """(affine, first (N,), period (N,), offset (N,)): with ``affine``, node index n's tick k is at exactly
+        float(k + first[n]) * period[n] + offset[n] (:func:`tick_times`' product and sum, the same doubles), so
+        that phase 1 of the compiled engine computes it instead of reading the tick table (a read maps the pages
+        around it: the whole table on a run of a few hours, :mod:`nodesim.chain.scratch`); not affine where a clock
+        steps (``faults.clock_step``)."""
+        return self._clock
+
+    def _clock_of(self, i: int, ticks: np.ndarray) -> None:
+        """Node index ``i``'s (first, period, offset) of :meth:`tick_clock` from its tick times, checked at both
+        ends (not affine where they are not the formula's)."""
+        affine, first, period, offset = self._clock
+        if not affine:
+            return
+        off, drift = node_clock(self.scenario, i + 1)
+        p = tick_period_s(drift, self.dt_s)
+        j = int(round((ticks[0] - off) / p))
+        if float(j) * p + off != ticks[0] or float(j + ticks.size - 1) * p + off != ticks[-1]:
+            self._clock = (False, first, period, offset)
+            return
+        first[i], period[i], offset[i] = j, p, off
 
     def _tick_times(self, i: int) -> np.ndarray:
         """Node index ``i``'s true tick times: its clock, its clock steps, from its insertion on (a node not yet in
@@ -480,12 +512,14 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     SimPy event engine; both give the same numbers).  ``progress(fraction)`` is called as the run advances.
     ``on_node(run, surveys)`` streams the run (:mod:`nodesim.chain.streaming`): called with each node's records as
     they are complete, what it returns becomes the node's summary and the ChainRun keeps no per-tick records."""
-    from nodesim.chain.allocator import keep_freed_memory
+    from nodesim.chain.allocator import keep_freed_memory, limit_arenas
     from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
 
     require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     if scenario.simulation.realizations > 1:
         keep_freed_memory()  # a batch reuses the pages the last one freed (nodesim.chain.allocator)
+    if on_node is not None:
+        limit_arenas()  # the nodes' arrays are freed where they are reused: memory flatter in the duration
     if choose_engine(scenario) == "compiled":
         held = [Network(scenario, attach_signals=False, spill=on_node is not None)]
         try:

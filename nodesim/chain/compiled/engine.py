@@ -179,9 +179,9 @@ def _survey_plan(net, plan: np.ndarray) -> tuple:
     rows = []  # (node index, tick, top index, stop)
     for n, node in enumerate(net.nodes):
         t, codes = node.t_s, plan[n, :node.t_s.size]
-        for stop in node.stops:
-            k = np.flatnonzero((t >= stop.t_survey_s) & (t < stop.end_s) & (codes != tp.STATIC)
-                               & (codes != tp.ABSENT))
+        for stop in node.stops:  # the ticks in [t_survey, end) by bisection: the node's whole row is not read
+            lo, hi = np.searchsorted(t, [stop.t_survey_s, stop.end_s], side="left").tolist()
+            k = lo + np.flatnonzero((codes[lo:hi] != tp.STATIC) & (codes[lo:hi] != tp.ABSENT))
             if k.size:
                 top = net.motion.top_node_id(t[k[0]]) - 1
                 rows.append((n, int(k[0]), top, stop))
@@ -253,7 +253,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         def scatter(chunk: tuple, slot: int) -> None:
             ev.scatter_records(chunk, recs[slot], out.applied, out.src_offset, out.src_tick)
 
-        events, status = _each_chunk(T, K, dead_at, plan, size, run, scatter)
+        events, status = _each_chunk(T, K, dead_at, plan, net.tick_clock(), size, run, scatter)
         if status == ev.DONE:
             return events, out, radio, stats, surveys[4:6]
         slots *= 2
@@ -275,21 +275,21 @@ def _chunk_events(K: np.ndarray, R: int) -> int:
     return max(min(ev.CHUNK_EVENTS, max(RECORD_BUFFER_BYTES // (6 * R), 4096), int(K.sum())), 1)
 
 
-def _each_chunk(T, K, dead_at, plan, size: int, run: Callable, finish: Callable) -> tuple[int, int]:
+def _each_chunk(T, K, dead_at, plan, clock: tuple, size: int, run: Callable, finish: Callable) -> tuple[int, int]:
     """``run(chunk, first event, slot)`` over the run's events in chunks of at most ``size`` (:func:`.events.next_events`:
-    nodes, ticks, tick times, plan codes), then ``finish(chunk, slot)``; ``slot`` (0, 1)
+    nodes, ticks, tick times (from ``clock`` where it is affine), plan codes), then ``finish(chunk, slot)``; ``slot`` (0, 1)
     alternates from chunk to chunk.  One worker thread makes the next chunk while ``run`` takes the last one, and
     runs ``finish`` after it (in that order: the chunk after next, in the same slot, is made after the finish of
     this one); every ``finish`` is done when this returns (events, the first status that is not DONE, else DONE)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    queue, counters, next_k = ev.first_events(T, K, dead_at)
+    queue, counters, next_k = ev.first_events(T, K, dead_at, clock)
     buffers = [(np.empty(size, np.int32), np.empty(size, np.int32), np.empty(size), np.empty(size, np.int8))
                for _ in range(2)]
 
     def make(i: int) -> tuple:
         chunk = buffers[i % 2]
-        count = ev.next_events(T, K, dead_at, plan, queue, counters, next_k, *chunk)
+        count = ev.next_events(T, K, dead_at, plan, queue, counters, next_k, *chunk, clock)
         return tuple(a[:count] for a in chunk)
 
     done = 0

@@ -190,7 +190,22 @@ def _select(r, n, k, i_ev, t, max_age_s, inbox, last_seq, stale, dup, ev_offset,
     return have
 
 
-def first_events(T, K, dead_at) -> tuple:
+def table_clock(N: int) -> tuple:
+    """The ``clock`` argument of :func:`first_events` / :func:`next_events` that reads every tick time from T."""
+    return False, np.zeros(N, np.int64), np.zeros(N), np.zeros(N)
+
+
+@njit(cache=True, inline="always")
+def tick_time(T, clock, n, k):
+    """Node n's tick k: float(k + first[n]) * period[n] + offset[n] where ``clock`` = (affine, first, period,
+    offset) is affine (:meth:`nodesim.chain.network.Network.tick_clock`: the same double as the table's), else
+    T[n, k]."""
+    if clock[0]:
+        return float(k + clock[1][n]) * clock[2][n] + clock[3][n]
+    return T[n, k]
+
+
+def first_events(T, K, dead_at, clock) -> tuple:
     """SimPy's event queue at t = 0 (each node's first tick): (queue (heap times, creation counters, nodes; ring
     times, creation counters, nodes: :func:`next_events`), counters [heap size, next creation counter, ring head,
     ring size], next tick (N,)).  The first ticks go into the heap (a node inserted later waits there)."""
@@ -198,23 +213,23 @@ def first_events(T, K, dead_at) -> tuple:
     queue = (np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64),
              np.empty(N), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64))
     counters, next_k = np.zeros(4, dtype=np.int64), np.zeros(N, dtype=np.int64)
-    _first_events(T, K, dead_at, queue, counters)
+    _first_events(T, K, dead_at, clock, queue, counters)
     return queue, counters, next_k
 
 
 @njit(cache=True, nogil=True)
-def _first_events(T, K, dead_at, queue, counters) -> None:
+def _first_events(T, K, dead_at, clock, queue, counters) -> None:
     h_t, h_e, h_n = queue[0], queue[1], queue[2]
     size, eid = 0, 0
     for n in range(T.shape[0]):
-        if K[n] > 0 and T[n, 0] < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, 0.0 + (T[n, 0] - 0.0), eid, n)
+        if K[n] > 0 and tick_time(T, clock, n, 0) < dead_at[n]:
+            size = _push(h_t, h_e, h_n, size, 0.0 + (tick_time(T, clock, n, 0) - 0.0), eid, n)
             eid += 1
     counters[0], counters[1] = size, eid
 
 
 @njit(cache=True, nogil=True)
-def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, times, codes) -> int:
+def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, times, codes, clock) -> int:
     """The next events in SimPy's order (module docstring), resuming the queue of :func:`first_events`: (node, tick)
     into ``nodes``, ``ticks`` (int32: a run's nodes and ticks stay far below 2^31; a day at 1.9 Hz is 164 k ticks),
     the tick's time T[n, k] into ``times`` and its code plan[n, k] into ``codes``, as many as fit; returns how many
@@ -226,7 +241,8 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
     :func:`run_events`: T and plan are (N, K) tables, node-major, and events come in time order, one node after
     another, so each of those reads lands on another node's row (a cache and TLB miss each; T[n, k] alone was ~30 %
     of phase 1 on the drilling day when :func:`run_events` read it): the entries of the event :data:`.prefetch.AHEAD`
-    on in the ring are prefetched (5.4 -> 3.5 s for the day's 146.5 M events).
+    on in the ring are prefetched (5.4 -> 3.5 s for the day's 146.5 M events).  Where ``clock`` is affine
+    (:func:`tick_time`) the tick times are computed, not read: T is not touched.
 
     The queue is a ring of events in (time, creation counter) order plus a heap of the rest; the next event is
     the smaller head of the two.  A new event has the largest counter yet, so it goes at the end of the ring when
@@ -242,7 +258,8 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
         if ring > AHEAD:  # the entries of the event AHEAD on in the ring, asked for now (:mod:`.prefetch`)
             a = head + AHEAD if head + AHEAD < N else head + AHEAD - N
             m = r_n[a]
-            prefetch(T, (m, next_k[m]))
+            if not clock[0]:
+                prefetch(T, (m, next_k[m]))
             prefetch(plan, (m, next_k[m]))
         if ring > 0 and (size == 0 or _less(r_t[head], r_e[head], h_t[0], h_e[0])):
             now, n = r_t[head], r_n[head]
@@ -251,14 +268,14 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
         else:
             now, n, size = _pop(h_t, h_e, h_n, size)
         k = next_k[n]
-        nodes[e], ticks[e], times[e] = n, k, T[n, k]
+        nodes[e], ticks[e], times[e] = n, k, tick_time(T, clock, n, k)
         code = plan[n, k]
         codes[e] = code
         e += 1
         k += 1
         next_k[n] = k
-        if k < K[n] and T[n, k] < dead_at[n]:
-            t = now + (T[n, k] - now)
+        if k < K[n] and tick_time(T, clock, n, k) < dead_at[n]:
+            t = now + (tick_time(T, clock, n, k) - now)
             tail = head + ring if head + ring < N else head + ring - N  # the slot after the ring's last event
             if ring == 0 or t >= r_t[tail - 1 if tail > 0 else N - 1]:
                 r_t[tail], r_e[tail], r_n[tail] = t, eid, n
