@@ -44,3 +44,18 @@ def test_keeping_freed_memory_changes_no_result(monkeypatch):
         for name in arrays:
             x, y = getattr(a, name), getattr(b, name)
             assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), name
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_a_streamed_run_limits_the_arenas_once_and_a_kept_run_does_not(monkeypatch):
+    """``limit_arenas``: set by a streamed run (``on_node``), not by a run that keeps its records; set once."""
+    calls = []
+    monkeypatch.setattr(allocator, "_arenas_limited", False)
+    real = allocator.limit_arenas
+    monkeypatch.setattr(allocator, "limit_arenas", lambda: calls.append(1) or real())
+    scenario = Scenario().with_overrides(**{"simulation.duration_s": 60.0, "chain.nodes": 2,
+                                            "metrics.window_start_s": 10.0, "metrics.window_end_s": 60.0})
+    simulate_chain(scenario)
+    assert calls == [] and not allocator._arenas_limited
+    simulate_chain(scenario, on_node=lambda run, surveys: None)
+    assert calls == [1] and allocator._arenas_limited and real()
