@@ -34,14 +34,15 @@ _done = False
 def keep_freed_memory() -> bool:
     """Set glibc's mmap and trim thresholds (module docstring) once per process; True if they are set."""
     global _done
-    if _done:
-        return True
-    mallopt = libc_function("mallopt", [ctypes.c_int, ctypes.c_int])
-    if mallopt is None:
-        return False
-    _done = bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and bool(mallopt(M_TRIM_THRESHOLD,
-                                                                                   TRIM_THRESHOLD_BYTES))
+    _done = _done or _mallopt((M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES), (M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES))
     return _done
+
+
+def _mallopt(*settings: tuple[int, int]) -> bool:
+    """glibc's ``mallopt(option, value)`` for each (option, value), in order; True if every one is set (False
+    where there is no mallopt)."""
+    mallopt = libc_function("mallopt", [ctypes.c_int, ctypes.c_int])
+    return mallopt is not None and all(bool(mallopt(option, value)) for option, value in settings)
 
 
 M_ARENA_MAX = -8  # glibc malloc.h
@@ -61,10 +62,5 @@ def limit_arenas() -> bool:
     0.86-0.91 GB without (``malloc_trim`` every few nodes did as well on the hours, but cost the day ~7 s of page
     faults).  It changes where memory comes from, never a result; elsewhere than glibc it does nothing."""
     global _arenas_limited
-    if _arenas_limited:
-        return True
-    mallopt = libc_function("mallopt", [ctypes.c_int, ctypes.c_int])
-    if mallopt is None:
-        return False
-    _arenas_limited = bool(mallopt(M_ARENA_MAX, STREAMED_ARENAS))
+    _arenas_limited = _arenas_limited or _mallopt((M_ARENA_MAX, STREAMED_ARENAS))
     return _arenas_limited

@@ -13,14 +13,19 @@ from nodesim.chain.network import simulate_chain
 from nodesim.scenario.schema import Scenario
 
 
+def _counted(monkeypatch, setter: str, flag: str):
+    """(calls, the real setter, a small scenario): ``allocator.<setter>`` counted, its ``flag`` reset."""
+    calls = []
+    monkeypatch.setattr(allocator, flag, False)
+    real = getattr(allocator, setter)
+    monkeypatch.setattr(allocator, setter, lambda: calls.append(1) or real())
+    return calls, real, Scenario().with_overrides(**{"simulation.duration_s": 60.0, "chain.nodes": 2,
+                                                     "metrics.window_start_s": 10.0, "metrics.window_end_s": 60.0})
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
 def test_the_thresholds_are_set_once_and_a_batched_run_sets_them(monkeypatch):
-    calls = []
-    monkeypatch.setattr(allocator, "_done", False)
-    real = allocator.keep_freed_memory
-    monkeypatch.setattr(allocator, "keep_freed_memory", lambda: calls.append(1) or real())
-    scenario = Scenario().with_overrides(**{"simulation.duration_s": 60.0, "chain.nodes": 2,
-                                            "metrics.window_start_s": 10.0, "metrics.window_end_s": 60.0})
+    calls, real, scenario = _counted(monkeypatch, "keep_freed_memory", "_done")
     simulate_chain(scenario)
     assert calls == [] and not allocator._done  # one realization: glibc's defaults
     simulate_chain(scenario.with_overrides(**{"simulation.realizations": 3}))
@@ -49,12 +54,7 @@ def test_keeping_freed_memory_changes_no_result(monkeypatch):
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
 def test_a_streamed_run_limits_the_arenas_once_and_a_kept_run_does_not(monkeypatch):
     """``limit_arenas``: set by a streamed run (``on_node``), not by a run that keeps its records; set once."""
-    calls = []
-    monkeypatch.setattr(allocator, "_arenas_limited", False)
-    real = allocator.limit_arenas
-    monkeypatch.setattr(allocator, "limit_arenas", lambda: calls.append(1) or real())
-    scenario = Scenario().with_overrides(**{"simulation.duration_s": 60.0, "chain.nodes": 2,
-                                            "metrics.window_start_s": 10.0, "metrics.window_end_s": 60.0})
+    calls, real, scenario = _counted(monkeypatch, "limit_arenas", "_arenas_limited")
     simulate_chain(scenario)
     assert calls == [] and not allocator._arenas_limited
     simulate_chain(scenario, on_node=lambda run, surveys: None)
