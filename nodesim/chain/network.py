@@ -147,12 +147,12 @@ class Network:
         self.tick_table = scratch.zeros(self.scratch, (c.nodes, max(sizes)), float)
         # node n's tick k is (k + first[n]) period[n] + offset[n] (tick_times' two roundings), where every clock
         # is such: phase 1 then computes the tick times instead of reading the table (Network.tick_clock)
-        self._clock = (not scenario.faults.clock_step, np.zeros(c.nodes, np.int64), np.zeros(c.nodes),
-                       np.zeros(c.nodes))
+        affine = not scenario.faults.clock_step
+        first, period, offset = np.zeros(c.nodes, np.int64), np.zeros(c.nodes), np.zeros(c.nodes)
         for i, size in enumerate(sizes):
             t = self.tick_table[i, :size]
             t[:] = ticks = self._tick_times(i)
-            self._clock_of(i, ticks)
+            affine = affine and self._affine_clock(i, ticks, first, period, offset)
             if i % scratch.DROP_EVERY_ROWS == scratch.DROP_EVERY_ROWS - 1:
                 scratch.drop(self.scratch)  # the rows written so far leave memory
             node = ChainNode(self, i + 1, self.motion.timelines[i], t, schedule.mask(t, self.dt_s))
@@ -160,6 +160,7 @@ class Network:
             node.radio = RadioState(R, mac.queue_length)
             node.fallback = faults.Fallback.new(scenario, skips[i + 1] if i + 1 < c.nodes else None, R)
             self.nodes.append(node)
+        self._clock = (affine, first, period, offset)
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []
         self._survey_hops: list[list] = []
@@ -217,19 +218,15 @@ class Network:
         steps (``faults.clock_step``)."""
         return self._clock
 
-    def _clock_of(self, i: int, ticks: np.ndarray) -> None:
-        """Node index ``i``'s (first, period, offset) of :meth:`tick_clock` from its tick times, checked at both
-        ends (not affine where they are not the formula's)."""
-        affine, first, period, offset = self._clock
-        if not affine:
-            return
+    def _affine_clock(self, i: int, ticks: np.ndarray, first: np.ndarray, period: np.ndarray,
+                      offset: np.ndarray) -> bool:
+        """Node index ``i``'s (first, period, offset) of :meth:`tick_clock` from its tick times, into row i of those
+        arrays; whether the formula gives them (checked at both ends)."""
         off, drift = node_clock(self.scenario, i + 1)
         p = tick_period_s(drift, self.dt_s)
         j = int(round((ticks[0] - off) / p))
-        if float(j) * p + off != ticks[0] or float(j + ticks.size - 1) * p + off != ticks[-1]:
-            self._clock = (False, first, period, offset)
-            return
         first[i], period[i], offset[i] = j, p, off
+        return float(j) * p + off == ticks[0] and float(j + ticks.size - 1) * p + off == ticks[-1]
 
     def _tick_times(self, i: int) -> np.ndarray:
         """Node index ``i``'s true tick times: its clock, its clock steps, from its insertion on (a node not yet in
