@@ -98,6 +98,25 @@ def test_sample_windows_count_the_samples_since_the_last_tick():
         tc.sample_windows(t, 1 / 1.9, 1.0)
 
 
+def test_sample_windows_equal_the_floors_of_the_tick_edges_on_random_clocks():
+    """The compiled pass gives what its definition gives in numpy, floor(edges rate) with edges (t_0 - dt, t_0, ...),
+    for clocks of random offset, period, length and sample rate; a tick with no sample is refused."""
+    rng = np.random.default_rng(20)
+    refused = 0
+    for _ in range(300):
+        dt, rate = rng.uniform(0.01, 2.0), float(rng.choice([65.0, 100.0, 1000.0, 64.9999, 3.3]))
+        t = rng.uniform(-5.0, 500.0) + np.arange(int(rng.integers(1, 3000))) * dt
+        last = np.floor(np.concatenate([[t[0] - dt], t]) * rate).astype(np.int64)
+        if np.diff(last).min() < 1:
+            refused += 1
+            with pytest.raises(NodesimError, match="reads no sensor sample"):
+                tc.sample_windows(t, dt, rate)
+            continue
+        first, n = tc.sample_windows(t, dt, rate)
+        assert np.array_equal(first, last[:-1] + 1) and np.array_equal(n, np.diff(last))
+    assert 0 < refused < 300
+
+
 def test_mpu6500_sensitivities_follow_the_ranges():
     for dps, lsb in ((250, 131.0), (500, 65.5), (1000, 32.8), (2000, 16.4)):
         assert ChainImu.from_scenario(Scenario().with_overrides(**{"sensor.gyro_full_scale_dps": dps})).gyro_lsb_per_deg_s == lsb
