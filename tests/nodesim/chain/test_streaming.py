@@ -105,6 +105,32 @@ def test_the_table_file_is_renamed_into_place_only_when_closed(tmp_path):
         (tmp_path / f"t.{fmt}").unlink()
 
 
+def test_the_parquet_table_encodes_each_column_as_its_options_say(tmp_path):
+    """Dictionaries for the few-valued float columns (DICTIONARY_COLUMNS), delta for the integers, byte-stream split
+    for the rest; the values read back are the ones written."""
+    import pyarrow.parquet as pq
+    from nodesim.chain.run_tables import TIMESERIES_COLUMNS
+    from nodesim.chain.streaming import DICTIONARY_COLUMNS, INTEGER_COLUMNS
+
+    rng = np.random.default_rng(4)
+    n = 5000
+    block = {k: rng.normal(size=n) for k in TIMESERIES_COLUMNS}
+    block.update(node=np.full(n, 3), running=rng.integers(0, 2, n), update=rng.integers(0, 2, n),
+                 update_age_s=rng.choice([np.nan, 0.004, 0.009, 0.5], n), yaw_sigma_deg=rng.choice([0.1, 0.2], n))
+    f = TimeseriesFile(tmp_path / "t.parquet", "parquet")
+    f.write(block)
+    f.close()
+    meta = pq.ParquetFile(tmp_path / "t.parquet").metadata.row_group(0)
+    for i, k in enumerate(TIMESERIES_COLUMNS):
+        encodings = set(meta.column(i).encodings)
+        want = ("RLE_DICTIONARY" if k in DICTIONARY_COLUMNS else "DELTA_BINARY_PACKED" if k in INTEGER_COLUMNS
+                else "BYTE_STREAM_SPLIT")
+        assert want in encodings, (k, encodings)
+    table = pq.read_table(tmp_path / "t.parquet")
+    for k in TIMESERIES_COLUMNS:
+        assert np.array_equal(table.column(k).to_numpy(), block[k], equal_nan=k not in INTEGER_COLUMNS), k
+
+
 @pytest.mark.parametrize("threads", ["1", "2"])
 def test_a_streamed_run_is_the_same_whatever_the_thread_count(monkeypatch, threads):
     """The sensors of the next nodes are computed on worker threads while phase 2 runs, the table is encoded on a
