@@ -73,6 +73,23 @@ def test_a_truth_without_its_readings_computes_the_same_readings_again():
     assert all(np.array_equal(x, y) for x, y in zip(kept.umax, lean.umax))
 
 
+def test_the_truth_does_not_depend_on_the_block_it_is_computed_in(monkeypatch):
+    """SampleTruth computes its samples block by block, carrying the prefix sums and maxima: any block size (one
+    sample, a few, one block for the whole range) gives the same sums, readings and maxima, bit for bit."""
+    scenario = Scenario.model_validate({"chain": {"nodes": 2}, "simulation": {"duration_s": 1200.0}})
+    imu = chain_imu.ChainImu.from_scenario(scenario)
+    motion = build_motion(scenario)
+    j_hi = int(300 * imu.sample_rate_hz)  # the profile's first 300 s: its spin-up ramps and first turns
+    built = []
+    for block in (1, 7, 1000, 1 << 20):
+        monkeypatch.setattr(chain_imu, "TRUTH_BLOCK_SAMPLES", block)
+        built.append(chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True))
+    for other in built[1:]:
+        assert np.array_equal(other._sums, built[0]._sums)
+        assert np.array_equal(other.u_gz, built[0].u_gz) and np.array_equal(other.u_a, built[0].u_a)
+        assert all(np.array_equal(x, y) for x, y in zip(other.umax, built[0].umax))
+
+
 def test_node_counts_falling_back_per_sample_read_the_truth_s_readings_again_the_same():
     """Near the gyro's full scale (250 deg/s, turning at 249) ticks fall back to per-sample sums, which read the
     truth's readings: from a truth that kept them or one that computes them again, the same counts."""
