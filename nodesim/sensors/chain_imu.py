@@ -241,6 +241,7 @@ class SampleTruth:
         self._sums = np.empty((S + 1, 4))  # U of the z gyro and the accelerometer's x, y, z, side by side
         self.u_gz, self.u_a = (np.empty(S), np.empty((S, 3))) if keep_readings else (None, None)
         acc, umax = np.zeros(4), np.zeros(4)
+        none = (np.empty(0), np.empty((0, 3)))  # the readings' place in a block where they are not kept
         for a in range(j_lo, j_hi, TRUTH_BLOCK_SAMPLES):
             b = min(j_hi, a + TRUTH_BLOCK_SAMPLES)
             t_j = np.arange(a, b, dtype=np.int64) / imu.sample_rate_hz
@@ -248,8 +249,7 @@ class SampleTruth:
             att = motion.shared_attitude(t_j) if shared else motion.attitude(node_index, t_j)
             inc, azi, yaw = (np.ascontiguousarray(np.broadcast_to(x, t_j.shape), dtype=float)
                              for x in (att.inclination_rad, att.azimuth_rad, att.yaw_rad))
-            u_gz, u_a = (self.u_gz[a - j_lo:b - j_lo], self.u_a[a - j_lo:b - j_lo]) if keep_readings else (
-                np.empty(0), np.empty((0, 3)))
+            u_gz, u_a = (self.u_gz[a - j_lo:b - j_lo], self.u_a[a - j_lo:b - j_lo]) if keep_readings else none
             _sample_sums(inc, azi, yaw, rate, imu.gyro_lsb_per_rad_s, imu.accel_lsb_per_m_s2, u_gz, u_a, acc, umax,
                          self._sums[a - j_lo:b - j_lo])
         self._sums[S] = acc  # U[j_hi]: after the last sample

@@ -222,8 +222,11 @@ def _first_events(T, K, dead_at, clock, queue, counters) -> None:
     h_t, h_e, h_n = queue[0], queue[1], queue[2]
     size, eid = 0, 0
     for n in range(T.shape[0]):
-        if K[n] > 0 and tick_time(T, clock, n, 0) < dead_at[n]:
-            size = _push(h_t, h_e, h_n, size, 0.0 + (tick_time(T, clock, n, 0) - 0.0), eid, n)
+        if K[n] == 0:
+            continue
+        t0 = tick_time(T, clock, n, 0)
+        if t0 < dead_at[n]:
+            size = _push(h_t, h_e, h_n, size, 0.0 + (t0 - 0.0), eid, n)
             eid += 1
     counters[0], counters[1] = size, eid
 
@@ -274,8 +277,9 @@ def next_events(T, K, dead_at, plan, queue, counters, next_k, nodes, ticks, time
         e += 1
         k += 1
         next_k[n] = k
-        if k < K[n] and tick_time(T, clock, n, k) < dead_at[n]:
-            t = now + (tick_time(T, clock, n, k) - now)
+        tk = tick_time(T, clock, n, k) if k < K[n] else np.inf  # the node's next tick (none: never scheduled)
+        if tk < dead_at[n]:
+            t = now + (tk - now)
             tail = head + ring if head + ring < N else head + ring - N  # the slot after the ring's last event
             if ring == 0 or t >= r_t[tail - 1 if tail > 0 else N - 1]:
                 r_t[tail], r_e[tail], r_n[tail] = t, eid, n
