@@ -132,30 +132,32 @@ def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> 
     """Metric arrays of shape (R,) for one node, in edge units (deg, s) (``motion``: the run's metric windows and
     the end of its last rotation)."""
     sel = metric_ticks(node, motion.metric_windows)
+    idx = np.flatnonzero(sel)  # the same elements in the same order as the mask, found once: a drilling day's
+    # node selects ~5 % of its ~160 k ticks, and each boolean index over (R, K) counted and found them again
     R = node.yaw_est_rad.shape[0]
     inc, azi = output_average(node, window.output_moving_average_points)
-    ref_inc, ref_azi = reference_attitude(node.true_inclination_rad[sel], node.true_azimuth_rad[sel],
+    ref_inc, ref_azi = reference_attitude(node.true_inclination_rad[idx], node.true_azimuth_rad[idx],
                                           node.reference_error_rad)
-    azi_err = wrap_pi(azi[:, sel] - ref_azi)
-    inc_err = inc[:, sel] - ref_inc
-    yaw_err = wrap_pi(node.yaw_est_rad[:, sel] - node.true_yaw_rad[sel])
-    timeout = ~node.update_mask[:, sel]
-    envelope = np.where(timeout, np.abs(yaw_err), -np.inf).max(axis=1, initial=-np.inf)
+    azi_err = wrap_pi(azi[:, idx] - ref_azi)
+    inc_err = inc[:, idx] - ref_inc
+    yaw_err = wrap_pi(node.yaw_est_rad[:, idx] - node.true_yaw_rad[idx])
+    update = node.update_mask[:, idx]
+    envelope = np.where(~update, np.abs(yaw_err), -np.inf).max(axis=1, initial=-np.inf)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows (no update) give NaN on purpose
-        age = np.nanmean(np.where(node.update_mask[:, sel], node.update_age_s[:, sel], np.nan), axis=1)
+        age = np.nanmean(np.where(update, node.update_age_s[:, idx], np.nan), axis=1)
     convergence = bias_convergence_time_s(
         node, motion.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
     )
     nan = np.full(R, np.nan)
     return {
-        "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if sel.any() else nan,
-        "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if sel.any() else nan,
-        "rms_yaw_error_deg": rad_to_deg(_rms(yaw_err)) if sel.any() else nan,
+        "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if idx.size else nan,
+        "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if idx.size else nan,
+        "rms_yaw_error_deg": rad_to_deg(_rms(yaw_err)) if idx.size else nan,
         "max_timeout_yaw_error_deg": np.where(np.isfinite(envelope), rad_to_deg(envelope), np.nan),
         "bias_convergence_time_s": convergence,
         "bias_converged_fraction": np.isfinite(convergence).astype(float),
-        "update_fraction": node.update_mask[:, sel].mean(axis=1) if sel.any() else nan,
+        "update_fraction": update.mean(axis=1) if idx.size else nan,
         "mean_update_age_s": age,
         "max_time_since_update_s": max_time_since_update_s(node, sel),
     }

@@ -355,11 +355,13 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
     starts = np.flatnonzero(codes == tp.START)
     _attach_records(net, n, out, codes)
-    static = codes == tp.STATIC
-    at_tick = static | (codes == tp.START)  # the ticks that read the encoder at the tick itself: read once
-    enc_yaw = net.encoder.read_many(t[at_tick])[0] if at_tick.any() else None
+    # the ticks that read the encoder at the tick itself (the static window, the start), as indices: read once;
+    # a boolean index over the node's (R, K) records would count and find them again at each use
+    at_tick = np.flatnonzero((codes == tp.STATIC) | (codes == tp.START))
+    static = codes[at_tick] == tp.STATIC
+    enc_yaw = net.encoder.read_many(t[at_tick])[0] if at_tick.size else None
     if static.any():
-        node.yaw[:, static] = enc_yaw[static[at_tick]]
+        node.yaw[:, at_tick[static]] = enc_yaw[static]
     if not starts.size:
         return
     n_static = int(starts[0])
@@ -412,8 +414,8 @@ def _received_frames(net, n: int, above, offset, src_tick, bits) -> tuple:
 def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.ndarray, bits, at_tick: np.ndarray,
                        enc_yaw: np.ndarray) -> None:
     """Phase 2 of the fixed-point firmware for node index ``n`` (:func:`.filters.run_node_firmware`); its filter
-    starts at tick ``n_static``; ``enc_yaw`` the encoder's yaw read at the ticks ``at_tick`` (the static window and
-    the start: :func:`_run_node` reads it once for the float records and the firmware)."""
+    starts at tick ``n_static``; ``enc_yaw`` the encoder's yaw read at the ticks ``at_tick`` (their indices: the
+    static window and the start; :func:`_run_node` reads it once for the float records and the firmware)."""
     node, sig = net.nodes[n], net.nodes[n].sig
     t, R, fw = sig.t_s, net.R, node.fw
     K = t.size
