@@ -193,3 +193,17 @@ def sin_cos(angle, iterations):
 def angle_rad(raw) -> np.ndarray:
     """Binary angle(s) (2^32 = one turn) in radians: raw 2 pi / 2^32 (exact in a double)."""
     return np.ldexp(np.asarray(raw, dtype=np.int64).astype(float), -ANGLE_BITS) * (2.0 * math.pi)
+
+
+_TURN_PER_LSB = 2.0**-ANGLE_BITS
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def angle_rad_into(raw, out) -> None:
+    """``out[r, k]`` = :func:`angle_rad` of ``raw[r, k]`` ((R, K) int64 into (R, K) float64, views allowed) in one
+    pass without temporaries: float(raw) 2^-32 is exact, as np.ldexp's (a power of two; |raw| < 2^53), then the
+    same product with 2 pi: the same bits (tests/firmware_model/test_cordic_survey.py).  A drilling-day node's surveys
+    are ~160 k of each word, converted to floats for its records."""
+    for r in range(raw.shape[0]):
+        for k in range(raw.shape[1]):
+            out[r, k] = (float(raw[r, k]) * _TURN_PER_LSB) * (2.0 * math.pi)

@@ -24,7 +24,7 @@ from functools import partial
 import numpy as np
 import simpy
 
-from firmware_model import node_survey as survey
+from firmware_model.cordic import angle_rad_into
 from firmware_model.node_survey import fixed_surveys
 from nodesim import threads
 from firmware_model import frames as fr
@@ -453,7 +453,8 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
                           frac)
 
         threads.map_chunks(run_fixed, R)
-        inc[:, first:], azi[:, first:] = survey.inclination_rad(inc_raw), survey.azimuth_rad(azi_raw)
+        angle_rad_into(inc_raw, inc[:, first:])  # survey.inclination_rad / azimuth_rad, in place (same bits)
+        angle_rad_into(azi_raw, azi[:, first:])
         node.survey_raw = (first, inc_raw, azi_raw)  # the survey frames' words (Network._survey_frames)
     elif first < K:
         def run(r0: int, r1: int) -> None:

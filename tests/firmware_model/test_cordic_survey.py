@@ -339,3 +339,16 @@ def test_the_offset_overflow_test_is_the_division_test(n, a, limit):
     assert survey._times_exceeds(n, a, limit) == (n > limit // a)
     assert survey._times_exceeds(min(n, 2**14 - 1), min(a, 2**48 - 1), limit) == (
         min(n, 2**14 - 1) > limit // min(a, 2**48 - 1))
+
+
+def test_angle_rad_into_gives_angle_rads_bits():
+    """The in-place conversion the chain's surveys use equals angle_rad bit for bit, on every edge of the word range
+    and on random words, into a strided view (a record's columns from the node's first tick on)."""
+    rng = np.random.default_rng(7)
+    edges = np.array([0, 1, 2, 2**31 - 1, 2**31, 2**31 + 1, 2**32 - 2, 2**32 - 1, -1, -(2**31)], dtype=np.int64)
+    raw = np.concatenate([edges, rng.integers(-(2**33), 2**33, 5000)]).reshape(2, -1)
+    out = np.full((2, raw.shape[1] + 3), np.nan)
+    cordic.angle_rad_into(raw, out[:, 3:])
+    want = cordic.angle_rad(raw)
+    assert np.array_equal(out[:, 3:].view(np.int64), want.view(np.int64))
+    assert np.isnan(out[:, :3]).all()  # nothing written outside the view
