@@ -25,7 +25,7 @@
   ``batched_mc_speedup_one_thread``: the same batch and the same single runs on one thread (``threads.limited(1)``, as
   ``NODESIM_THREADS=1`` would; what batching alone buys).
   ``batched_mc_speedup_event_engine``: the same on the SimPy engine, whose one-by-one side is EXTRAPOLATED from
-  ``MC_SAMPLE`` single runs x 1000 / MC_SAMPLE (its 1000 runs would take ~8 min).
+  ``MC_SAMPLE`` single runs x 1000 / MC_SAMPLE (its 1000 runs would take ~10 min: 0.5-0.6 s each).
 * ``drilling_day_1000_*``: :func:`drilling_day_1000` (the whole day of a 1000-tube string, run, not
   extrapolated; it replaced the 1000-node 24 h extrapolation of earlier benchmarks once streamed runs could run it).
 """
