@@ -190,20 +190,20 @@ def sin_cos(angle, iterations):
     return y, x
 
 
-def angle_rad(raw) -> np.ndarray:
-    """Binary angle(s) (2^32 = one turn) in radians: raw 2 pi / 2^32 (exact in a double)."""
-    return np.ldexp(np.asarray(raw, dtype=np.int64).astype(float), -ANGLE_BITS) * (2.0 * math.pi)
-
-
 _TURN_PER_LSB = 2.0**-ANGLE_BITS
+
+
+def angle_rad(raw) -> np.ndarray:
+    """Binary angle(s) (2^32 = one turn) in radians: (raw 2^-32) 2 pi; raw 2^-32 is exact (a power of two, |raw| <
+    2^53), as an ``np.ldexp`` by -32 is (the same bits)."""
+    return (np.asarray(raw, dtype=np.int64).astype(float) * _TURN_PER_LSB) * (2.0 * math.pi)
 
 
 @njit(cache=True, _nrt=False, nogil=True)
 def angle_rad_into(raw, out) -> None:
-    """``out[r, k]`` = :func:`angle_rad` of ``raw[r, k]`` ((R, K) int64 into (R, K) float64, views allowed) in one
-    pass without temporaries: float(raw) 2^-32 is exact, as np.ldexp's (a power of two; |raw| < 2^53), then the
-    same product with 2 pi: the same bits (tests/firmware_model/test_cordic_survey.py).  A drilling-day node's surveys
-    are ~160 k of each word, converted to floats for its records."""
+    """``out[r, k]`` = :func:`angle_rad` of ``raw[r, k]`` ((R, K) int64 into (R, K) float64, views allowed), its
+    expression in one pass without temporaries (tests/firmware_model/test_cordic_survey.py compares the bits).  A
+    drilling-day node's surveys are ~160 k of each word, converted to floats for its records."""
     for r in range(raw.shape[0]):
         for k in range(raw.shape[1]):
             out[r, k] = (float(raw[r, k]) * _TURN_PER_LSB) * (2.0 * math.pi)
