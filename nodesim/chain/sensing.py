@@ -21,7 +21,8 @@ from numba import njit
 from nodesim.motion.timelines import ChainMotion
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
-from nodesim.sensors.chain_imu import ChainImu, SampleTruth, node_counts
+from nodesim.sensors.chain_imu import ChainImu, node_counts
+from nodesim.sensors.sample_truth import SampleTruth
 from nodesim.sensors.encoder import RotaryEncoder
 
 

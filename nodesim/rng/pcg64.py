@@ -126,6 +126,29 @@ def fill_normals(states: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
+def fill_normals_rows(states: np.ndarray, counts: np.ndarray, out: np.ndarray) -> None:
+    """Row i of ``out`` (M, n) begins with the next ``counts[i]`` ``standard_normal()`` draws of stream i (its other
+    entries are left as they are), each stream advanced in place by exactly its count: a stream read in pieces
+    gives the same numbers as read at once."""
+    for i in range(out.shape[0]):
+        hi, lo, inc_hi, inc_lo = states[i, 0], states[i, 1], states[i, 2], states[i, 3]
+        for j in range(counts[i]):
+            out[i, j], hi, lo = normal(hi, lo, inc_hi, inc_lo)
+        states[i, 0], states[i, 1] = hi, lo
+
+
+@njit(cache=True, nogil=True)
+def skip_normals(states: np.ndarray, count: int) -> None:
+    """Advance every stream of ``states`` (M, 4) in place past its next ``count`` ``standard_normal()`` draws (a
+    normal takes one or more steps of the generator, so they are drawn and dropped: no jump ahead)."""
+    for i in range(states.shape[0]):
+        hi, lo, inc_hi, inc_lo = states[i, 0], states[i, 1], states[i, 2], states[i, 3]
+        for _ in range(count):
+            _, hi, lo = normal(hi, lo, inc_hi, inc_lo)
+        states[i, 0], states[i, 1] = hi, lo
+
+
+@njit(cache=True, nogil=True)
 def fill_uniforms(states: np.ndarray, rows: np.ndarray, buffer: np.ndarray, start: np.ndarray,
                   stop: np.ndarray) -> None:
     """``buffer[start[j]:stop[j]]`` = the next ``random()`` draws of stream ``rows[j]`` (advanced in place)."""

@@ -29,10 +29,8 @@ The tick-sum normals of every tick are drawn (used or not), so the fallback of o
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +44,7 @@ from nodesim.rng import pcg64
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
 from nodesim.sensors import tick_counts as tc
+from nodesim.sensors.sample_truth import SampleTruth
 from nodesim.units import DEG, G0_M_S2
 
 GYRO_LSB_PER_DEG_S = {fs: x10 / 10.0 for fs, x10 in GYRO_SENS_X10.items()}  # the firmware's table
@@ -146,51 +145,6 @@ class NodeCounts:
     per_sample_ticks: int  # (tick, realization) pairs of either triad read per sample
 
 
-@njit(cache=True, inline="always")
-def _force(inc, azi, yaw):
-    """g [sin I cos(A - psi), sin I sin(A - psi), cos I] at one sample (:func:`sensor_force`)."""
-    tau = azi - yaw
-    si = math.sin(inc)
-    return G0_M_S2 * (math.cos(tau) * si), G0_M_S2 * (math.sin(tau) * si), G0_M_S2 * math.cos(inc)
-
-
-@njit(cache=True, nogil=True)
-def _forces(inc, azi, yaw, out) -> None:
-    for j in range(inc.size):
-        out[j, 0], out[j, 1], out[j, 2] = _force(inc[j], azi[j], yaw[j])
-
-
-def sensor_force(inclination_rad, azimuth_rad, yaw_rad) -> np.ndarray:
-    """Noise-free sensor-frame specific force (..., 3) m/s^2: g [sin I cos(A - psi), sin I sin(A - psi), cos I], the
-    third row of :func:`nodesim.sensors.magnetometer.body_to_neu` (:func:`~nodesim.sensors.magnetometer.specific_force_body`)
-    without building the matrices (the chain evaluates it at every sample, :class:`SampleTruth`)."""
-    inc, azi, yaw = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (inclination_rad, azimuth_rad, yaw_rad)))
-    out = np.empty((inc.size, 3))
-    _forces(np.ascontiguousarray(inc).ravel(), np.ascontiguousarray(azi).ravel(), np.ascontiguousarray(yaw).ravel(),
-            out)
-    return out.reshape(inc.shape + (3,))
-
-
-@njit(cache=True, nogil=True)
-def _sample_sums(inc, azi, yaw, rate, gyro_lsb, accel_lsb, u_gz, u_a, acc, umax, sums) -> None:
-    """One pass over a block of consecutive samples: the truth in LSB (z gyro ``rate`` x ``gyro_lsb``, accelerometer
-    :func:`_force` x ``accel_lsb``), written to ``u_gz`` / ``u_a`` where they have room (empty: not kept), the
-    prefix sums before each sample (row m of ``sums``: z gyro, accel x, y, z) continued from ``acc`` (the sums
-    before the block, left after it; added in sample order, as ``numpy.cumsum`` adds) and the largest |u| per axis
-    carried in ``umax`` (z gyro, accel x, y, z)."""
-    readings = u_gz.size > 0
-    for m in range(inc.size):
-        sums[m, 0], sums[m, 1], sums[m, 2], sums[m, 3] = acc[0], acc[1], acc[2], acc[3]
-        g = rate[m] * gyro_lsb
-        f0, f1, f2 = _force(inc[m], azi[m], yaw[m])
-        a0, a1, a2 = f0 * accel_lsb, f1 * accel_lsb, f2 * accel_lsb
-        if readings:
-            u_gz[m], u_a[m, 0], u_a[m, 1], u_a[m, 2] = g, a0, a1, a2
-        acc[0], acc[1], acc[2], acc[3] = acc[0] + g, acc[1] + a0, acc[2] + a1, acc[3] + a2
-        umax[0], umax[1] = max(umax[0], abs(g)), max(umax[1], abs(a0))
-        umax[2], umax[3] = max(umax[2], abs(a1)), max(umax[3], abs(a2))
-
-
 def tilt_matrices(tilt_rad: np.ndarray) -> np.ndarray:
     """(R, 3, 3) T = R_x(a) R_y(b) for rows (a, b) of ``tilt_rad``."""
     a, b = tilt_rad[:, 0], tilt_rad[:, 1]
@@ -213,207 +167,185 @@ def _first_sample_at_or_after(t_s: float, rate_hz: float) -> int:
     return j
 
 
-class SampleTruth:
-    """The noise-free readings (LSB, before tilt, scale factor and bias) on the sample grid j_lo <= j < j_hi (at
-    t_j = j / sample_rate_hz: the z gyro the string's spin rate, the accelerometer :func:`sensor_force` of the
-    node's attitude) and their prefix sums, so that a tick's sum of the noise-free readings is one difference
-    (O(1) per tick, not O(samples)):
-
-        sum_{first_k <= j < first_k + n_k} u_j = U[first_k + n_k] - U[first_k],   U[m] = sum_{j_lo <= j < m} u_j
-
-    (rounding: a few ulp of U, < 1e-4 LSB for a day of 65 Hz samples at full scale), computed block by block
-    (:data:`TRUTH_BLOCK_SAMPLES` samples: times, rates and attitudes of a block, not of the run) by one compiled
-    pass (:func:`_sample_sums`).  One per run where every node has the same attitude (``shared``: the motion's
-    :attr:`~nodesim.motion.timelines.ChainMotion.shared_attitude`, the lab's rigid string or a drilling string in a
-    straight hole, :func:`nodesim.chain.sensing.shared_truth`), else one per node (its ``attitude``).
-
-    Without ``keep_readings`` it keeps only the prefix sums (and the maxima): half the memory (32 bytes a sample
-    instead of 64), and :meth:`slice`, which only a tick drawn per sample needs, computes the readings of the samples
-    asked for again, the same values (each sample's reading depends on its own time only: tested)."""
-
-    def __init__(self, imu: ChainImu, motion: ChainMotion, j_lo: int, j_hi: int, node_index: int = 0,
-                 shared: bool = False, keep_readings: bool = True):
-        self.j_lo, self.j_hi = j_lo, j_hi
-        # what :meth:`slice` needs to compute readings again (the motion by weak reference: the run holds it, and a
-        # truth cached between runs, :func:`nodesim.chain.sensing.shared_truth`, must not keep it alive)
-        self._imu, self._motion, self._node_index, self._shared = imu, weakref.ref(motion), node_index, shared
-        S = j_hi - j_lo
-        self._sums = np.empty((S + 1, 4))  # U of the z gyro and the accelerometer's x, y, z, side by side
-        self.u_gz, self.u_a = (np.empty(S), np.empty((S, 3))) if keep_readings else (None, None)
-        acc, umax = np.zeros(4), np.zeros(4)
-        none = (np.empty(0), np.empty((0, 3)))  # the readings' place in a block where they are not kept
-        for a in range(j_lo, j_hi, TRUTH_BLOCK_SAMPLES):
-            b = min(j_hi, a + TRUTH_BLOCK_SAMPLES)
-            t_j = np.arange(a, b, dtype=np.int64) / imu.sample_rate_hz
-            rate = np.ascontiguousarray(motion.rotation.rate_rad_s(t_j), dtype=float)
-            att = motion.shared_attitude(t_j) if shared else motion.attitude(node_index, t_j)
-            inc, azi, yaw = (np.ascontiguousarray(np.broadcast_to(x, t_j.shape), dtype=float)
-                             for x in (att.inclination_rad, att.azimuth_rad, att.yaw_rad))
-            u_gz, u_a = (self.u_gz[a - j_lo:b - j_lo], self.u_a[a - j_lo:b - j_lo]) if keep_readings else none
-            _sample_sums(inc, azi, yaw, rate, imu.gyro_lsb_per_rad_s, imu.accel_lsb_per_m_s2, u_gz, u_a, acc, umax,
-                         self._sums[a - j_lo:b - j_lo])
-        self._sums[S] = acc  # U[j_hi]: after the last sample
-        self.umax = (np.array([0.0, 0.0, umax[0]]), umax[1:].copy())
-
-    def covers(self, a: int, b: int) -> bool:
-        return self.j_lo <= a and b <= self.j_hi
-
-    def slice(self, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-        """(z-gyro (S,), accelerometer (S, 3)) truth of the samples a <= j < b (views; computed again where the
-        readings were not kept)."""
-        if self.u_gz is None:
-            again = SampleTruth(self._imu, self._motion(), a, b, self._node_index, self._shared)
-            return again.u_gz, again.u_a
-        return self.u_gz[a - self.j_lo:b - self.j_lo], self.u_a[a - self.j_lo:b - self.j_lo]
-
-    def tick_sums(self, first: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(z-gyro (K,), accelerometer (K, 3)) sums of the truth over each tick's samples first_k .. first_k + n_k - 1
-        (:func:`_window_sums`: the differences of the prefix sums, the same subtraction as fancy indexing,
-        without its index and gathered temporaries)."""
-        K = first.size
-        out_gz, out_a = np.empty(K), np.empty((K, 3))
-        _window_sums(self._sums, np.ascontiguousarray(first, dtype=np.int64) - self.j_lo,
-                     np.ascontiguousarray(n, dtype=np.int64), out_gz, out_a)
-        return out_gz, out_a
-
-
-TRUTH_BLOCK_SAMPLES = 1 << 16
-"""Samples :class:`SampleTruth` computes at a time: ~3 MB of times, attitudes and rates, not the run's (the drilling
-day's shared truth, 5.6 M samples, 180 MB, built in 0.4-0.9 s instead of 1.3-1.5 s and at a peak of 180 MB instead
-of 580 MB: the whole run's temporaries are no longer made; 2026-12-05)."""
-
-
-@njit(cache=True, nogil=True)
-def _window_sums(sums, a, n, out_gz, out_a) -> None:
-    """``out_gz[k] = U[a_k + n_k] - U[a_k]`` for the z gyro, ``out_a[k]`` likewise per accelerometer axis: the sums over
-    windows of :class:`SampleTruth`'s prefix sums ``sums`` (rows: z gyro, accel x, y, z; ``a`` relative to its first
-    sample, in range).  A node's windows are consecutive (a_(k+1) = a_k + n_k): the prefix sums at a window's end
-    are kept for the next window's start, so each row is read once, not twice, and a row's four sums are side by
-    side (one cache line, not two arrays' lines): memory, not arithmetic, is the cost here (a node of the drilling
-    day, 163 k ticks: min / median 2.2 / 2.6 ms against 2.6-3.1 / 3.3-3.5 ms with the gyro's and the
-    accelerometer's sums in two arrays, 2026-12-05)."""
-    end = -1
-    g_hi, x_hi, y_hi, z_hi = 0.0, 0.0, 0.0, 0.0
-    for k in range(a.size):
-        lo, hi = a[k], a[k] + n[k]
-        if lo == end:
-            g_lo, x_lo, y_lo, z_lo = g_hi, x_hi, y_hi, z_hi
-        else:
-            g_lo, x_lo, y_lo, z_lo = sums[lo, 0], sums[lo, 1], sums[lo, 2], sums[lo, 3]
-        g_hi, x_hi, y_hi, z_hi = sums[hi, 0], sums[hi, 1], sums[hi, 2], sums[hi, 3]
-        out_gz[k] = g_hi - g_lo
-        out_a[k, 0], out_a[k, 1], out_a[k, 2] = x_hi - x_lo, y_hi - y_lo, z_hi - z_lo
-        end = hi
-
-
 def node_counts(imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray,
                 dt_s: float, realizations: int, truth: SampleTruth | None = None) -> NodeCounts:
     """Count sums of node ``node_index`` (0-based) at its true tick times ``t_s`` (module docstring); ``truth`` the
-    run's shared per-sample truth where the attitude is the same for every node."""
-    R, K = realizations, t_s.size
-    first, n = tc.sample_windows(t_s, dt_s, imu.sample_rate_hz)
-    j0, S = int(first[0]), int(n.sum())  # the node's samples are consecutive
-    starts = np.concatenate([[0], np.cumsum(n)[:-1]]).astype(np.int64)
-    if truth is None or not truth.covers(j0, j0 + S):
-        truth = SampleTruth(imu, motion, j0, j0 + S, node_index)
-    readings = functools.cache(lambda: truth.slice(j0, j0 + S))  # (u_gz, u_a): only a tick drawn per sample reads them
-    tilt = streams.sensor_normals(R, node_index, "tilt", 2) * imu.tilt_sigma_rad
-    T = tilt_matrices(tilt)
-    # gyro bias (LSB): turn-on + residual after the filter start (from sample j_start on) + Gauss-Markov per tick
-    timeline = motion.timelines[node_index]
-    j_start = _first_sample_at_or_after(timeline.filter_start_s, imu.sample_rate_hz)
-    n_after = np.clip(first + n - j_start, 0, n)
-    sg = imu.gyro_lsb_per_rad_s
-    b_on, b_res = imu.turn_on_bias_rad_s * sg, imu.residual_bias_rad_s * sg
-    phi = math.exp(-dt_s / imu.bias_tau_s)
-    gm = (imu.bias_instability_rad_s * sg, imu.bias_instability_rad_s * sg * math.sqrt(1.0 - phi * phi), phi)
-    g_states = streams.sensor_states(R, node_index, "gyro")  # the Gauss-Markov drive, then the tick-sum normals
-    gm_z = np.empty((R, K))  # the z axis' Gauss-Markov bias [LSB]
-    gain = 1.0 + imu.scale_factor_error
-    g_lo, g_hi = imu.gyro_limits
-    a_lo, a_hi = imu.accel_limits
-    if imu.sampling == "tick_sum":
-        # tick sums of the noise-free readings; a bound on each tick's largest |mu| first from the largest |u| of
-        # the grid, only where that bound fails from the per-tick maxima (the draws do not depend on the bound)
-        usum_gz, usum_a = truth.tick_sums(first, n)
-        gyro, accel = np.empty((R, K, 3), np.int64), np.empty((R, K, 3), np.int64)
-        g_sel, a_sel = np.empty((R, K), np.bool_), np.empty((R, K), np.bool_)
-        a_states = streams.sensor_states(R, node_index, "accel")
-        sums = (usum_gz, usum_a, np.ascontiguousarray(T), gain, b_on, b_res, *gm, n.astype(float), n_after.astype(float),
-                imu.gyro_sigma_lsb, imu.accel_sigma_lsb, g_lo, g_hi, a_lo, a_hi)
+    run's shared per-sample truth where the attitude is the same for every node.  All ticks in one window of
+    :class:`NodeImuStream`."""
+    return NodeImuStream(imu, motion, streams, node_index, t_s, dt_s, realizations, truth).counts(0, t_s.size, truth)
 
-        def draw(umax_gz: np.ndarray, umax_a: np.ndarray) -> None:  # ranges of realizations on threads
-            zg, za = g_states.copy(), a_states.copy()  # a second draw reads the same normals
-            threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, zg, za, gyro, accel, g_sel, a_sel,
-                                                         gm_z, r0, r1), R)
-        draw(np.broadcast_to(truth.umax[0][2], (K,)), np.broadcast_to(truth.umax[1], (K, 3)))  # views, no copies
-        if g_sel.any() or a_sel.any():
-            draw(np.maximum.reduceat(np.abs(readings()[0]), starts),
-                 np.ascontiguousarray(np.maximum.reduceat(np.abs(readings()[1]), starts, axis=0)))
-    else:
-        g_sel = a_sel = np.ones((R, K), dtype=bool)
-        gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
-        threads.map_chunks(lambda r0, r1: _gauss_markov_z(g_states.copy(), *gm, gm_z, r0, r1), R)
-    # turn-on + residual + Gauss-Markov [rad/s], in gm_z's memory (x + y == y + x in floating point: the same bits
-    # as the sum in that order, without two more (R, K) arrays)
-    true_bias = np.divide(gm_z, sg, out=gm_z)
-    true_bias += imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= timeline.filter_start_s)
 
-    def gyro_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
-        after = (j0 + idx >= j_start)[:, None]
-        u = np.zeros((idx.size, 3))
-        u[:, 2] = readings()[0][idx]
-        return gain * (u @ T[r].T) + b_on + _gauss_markov_bias(g_states[r].copy(), *gm, K)[ticks] + b_res * after
+class NodeImuStream:
+    """Node ``node_index``'s count sums (module docstring) window by window of its ticks: :meth:`counts` for
+    consecutive windows [0, k_1), [k_1, k_2), ... gives, tick for tick, the numbers of one window over all ticks
+    (tests/nodesim/sensors/test_chain_imu.py), so that a run need not hold a node's readings of the whole run.
 
-    def accel_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
-        return readings()[1][idx] @ T[r].T
+    Carried from window to window, per realization: the PCG64 states of the streams (module docstring), the
+    Gauss-Markov bias of the last tick (x_k = phi x_(k-1) + sigma sqrt(1 - phi^2) w_k goes on from it), and, for a
+    node whose samples the shared truth does not cover, its own truth's prefix sums (:class:`SampleTruth`
+    ``start_sums``).  The "gyro" stream holds the node's whole Gauss-Markov drive (3 K normals) before its tick-sum
+    normals, so a node read in more than one window finds where those start once, by drawing and dropping the drive
+    (:func:`nodesim.rng.pcg64.skip_normals`); one window over all ticks draws the drive and goes straight on.  Which
+    ticks fall back to per-sample sums does not depend on the window: the first draw's bound (the truth's largest
+    |u|) only decides whether the per-tick bounds are looked at, and those decide (:func:`tick_counts.valid_one` is
+    monotone in the bound)."""
 
-    g_clip = _per_sample(gyro, g_sel, gyro_mu, imu.gyro_sigma_lsb, g_lo, g_hi, starts, n, streams, node_index,
-                         "gyro_samples")
-    a_clip = _per_sample(accel, a_sel, accel_mu, imu.accel_sigma_lsb, a_lo, a_hi, starts, n, streams, node_index,
-                         "accel_samples")
-    return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, tilt,
-                      int(g_sel.sum() + a_sel.sum()))
+    def __init__(self, imu: ChainImu, motion: ChainMotion, streams: RunStreams, node_index: int, t_s: np.ndarray,
+                 dt_s: float, realizations: int, shared: SampleTruth | None = None):
+        R = realizations
+        self.imu, self.motion, self.node_index, self.t_s, self.dt_s, self.R = imu, motion, node_index, t_s, dt_s, R
+        self.tilt = streams.sensor_normals(R, node_index, "tilt", 2) * imu.tilt_sigma_rad
+        self.T = np.ascontiguousarray(tilt_matrices(self.tilt))
+        # gyro bias (LSB): turn-on + residual after the filter start (from sample j_start on) + Gauss-Markov per tick
+        self.filter_start_s = motion.timelines[node_index].filter_start_s
+        self.j_start = _first_sample_at_or_after(self.filter_start_s, imu.sample_rate_hz)
+        sg = imu.gyro_lsb_per_rad_s
+        self.b_on, self.b_res = imu.turn_on_bias_rad_s * sg, imu.residual_bias_rad_s * sg
+        phi = math.exp(-dt_s / imu.bias_tau_s)
+        self.gm = (imu.bias_instability_rad_s * sg, imu.bias_instability_rad_s * sg * math.sqrt(1.0 - phi * phi), phi)
+        self.z_gm = streams.sensor_states(R, node_index, "gyro")  # the Gauss-Markov drive, then the tick-sum normals
+        self.z_g = None  # the tick-sum normals' states (found when the first window is not all ticks)
+        self.z_a = streams.sensor_states(R, node_index, "accel")
+        self.z_samples = {name: streams.sensor_states(R, node_index, name) for name in ("gyro_samples", "accel_samples")}
+        self.gm_last = np.zeros((R, 3))  # the Gauss-Markov bias of the last tick read
+        self.k_next = 0
+        j0, j_end = _sample_span(t_s, dt_s, imu.sample_rate_hz)
+        self.own = shared is None or not shared.covers(j0, j_end)  # reads a truth of its own, window by window
+        self.own_sums = np.zeros(4)
+
+    def counts(self, k0: int, k1: int, truth: SampleTruth | None = None) -> NodeCounts:
+        """The count sums of ticks ``k0`` .. ``k1 - 1`` (the window after the last one read), arrays over those
+        ticks; ``truth`` the shared truth covering their samples (read unless the node reads its own)."""
+        if k0 != self.k_next or not k0 < k1 <= self.t_s.size:
+            raise ValueError(f"node {self.node_index}: ticks [{k0}, {k1}) do not follow tick {self.k_next} "
+                             f"(of {self.t_s.size})")
+        self.k_next = k1
+        imu, R, K = self.imu, self.R, k1 - k0
+        whole = k0 == 0 and k1 == self.t_s.size
+        if imu.sampling == "tick_sum" and not whole and self.z_g is None:  # where the tick-sum normals start: after
+            # the whole drive (3 K normals)
+            self.z_g = self.z_gm.copy()
+            drive = 3 * self.t_s.size if self.gm[0] != 0.0 else 0
+            threads.map_chunks(lambda r0, r1: pcg64.skip_normals(self.z_g[r0:r1], drive), R)
+        t_s = self.t_s[k0:k1]
+        first, n = tc.sample_windows(self.t_s[max(k0 - 1, 0):k1], self.dt_s, imu.sample_rate_hz)
+        first, n = (first[1:], n[1:]) if k0 > 0 else (first, n)  # tick k0 - 1 only gives tick k0's first sample
+        j0, S = int(first[0]), int(n.sum())  # the window's samples are consecutive
+        starts = np.concatenate([[0], np.cumsum(n)[:-1]]).astype(np.int64)
+        if self.own:
+            truth = SampleTruth(imu, self.motion, j0, j0 + S, self.node_index, start_sums=self.own_sums)
+            self.own_sums = truth.end_sums
+        elif truth is None or not truth.covers(j0, j0 + S):
+            raise ValueError(f"node {self.node_index}: the shared truth does not cover samples [{j0}, {j0 + S})")
+        readings = functools.cache(lambda: truth.slice(j0, j0 + S))  # (u_gz, u_a): only a tick drawn per sample reads them
+        n_after = np.clip(first + n - self.j_start, 0, n)
+        gm_start = (self.z_gm.copy(), self.gm_last.copy(), k0 == 0)  # the window's drive: per-sample ticks draw it again
+        gm_z = np.empty((R, K))  # the z axis' Gauss-Markov bias [LSB]
+        gain, T = 1.0 + imu.scale_factor_error, self.T
+        g_lo, g_hi = imu.gyro_limits
+        a_lo, a_hi = imu.accel_limits
+        if imu.sampling == "tick_sum":
+            # tick sums of the noise-free readings; a bound on each tick's largest |mu| first from the largest |u| of
+            # the truth, only where that bound fails from the per-tick maxima (the draws do not depend on the bound)
+            usum_gz, usum_a = truth.tick_sums(first, n)
+            gyro, accel = np.empty((R, K, 3), np.int64), np.empty((R, K, 3), np.int64)
+            g_sel, a_sel = np.empty((R, K), np.bool_), np.empty((R, K), np.bool_)
+            sums = (usum_gz, usum_a, T, gain, self.b_on, self.b_res, *self.gm, n.astype(float), n_after.astype(float),
+                    imu.gyro_sigma_lsb, imu.accel_sigma_lsb, g_lo, g_hi, a_lo, a_hi)
+
+            def draw(umax_gz: np.ndarray, umax_a: np.ndarray) -> tuple:  # ranges of realizations on threads
+                z = (self.z_gm.copy(), (self.z_gm if whole else self.z_g).copy(), self.z_a.copy(), self.gm_last.copy())
+                threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, *z, k0 == 0, whole, gyro, accel,
+                                                             g_sel, a_sel, gm_z, r0, r1), R)
+                return z  # a second draw reads the same normals: the streams advance from the last one
+            z = draw(np.broadcast_to(truth.umax[0][2], (K,)), np.broadcast_to(truth.umax[1], (K, 3)))  # views
+            if g_sel.any() or a_sel.any():
+                z = draw(np.maximum.reduceat(np.abs(readings()[0]), starts),
+                         np.ascontiguousarray(np.maximum.reduceat(np.abs(readings()[1]), starts, axis=0)))
+            self.z_gm, z_g, self.z_a, self.gm_last = z
+            self.z_g = None if whole else z_g
+        else:
+            g_sel = a_sel = np.ones((R, K), dtype=bool)
+            gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
+            threads.map_chunks(lambda r0, r1: _gauss_markov_z(self.z_gm, *self.gm, self.gm_last, k0 == 0, gm_z, r0, r1),
+                               R)
+        # turn-on + residual + Gauss-Markov [rad/s], in gm_z's memory (x + y == y + x in floating point: the same bits
+        # as the sum in that order, without two more (R, K) arrays)
+        true_bias = np.divide(gm_z, imu.gyro_lsb_per_rad_s, out=gm_z)
+        true_bias += imu.turn_on_bias_rad_s + imu.residual_bias_rad_s * (t_s >= self.filter_start_s)
+        b_on, b_res, j_start = self.b_on, self.b_res, self.j_start
+
+        def gyro_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
+            after = (j0 + idx >= j_start)[:, None]
+            u = np.zeros((idx.size, 3))
+            u[:, 2] = readings()[0][idx]
+            drive = _gauss_markov_bias(gm_start[0][r].copy(), *self.gm, gm_start[1][r], gm_start[2], K)
+            return gain * (u @ T[r].T) + b_on + drive[ticks] + b_res * after
+
+        def accel_mu(r: int, idx: np.ndarray, ticks: np.ndarray) -> np.ndarray:
+            return readings()[1][idx] @ T[r].T
+
+        g_clip = _per_sample(gyro, g_sel, gyro_mu, imu.gyro_sigma_lsb, g_lo, g_hi, starts, n,
+                             self.z_samples["gyro_samples"])
+        a_clip = _per_sample(accel, a_sel, accel_mu, imu.accel_sigma_lsb, a_lo, a_hi, starts, n,
+                             self.z_samples["accel_samples"])
+        return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, self.tilt,
+                          int(g_sel.sum() + a_sel.sum()))
+
+
+def _sample_span(t_s: np.ndarray, dt_s: float, rate_hz: float) -> tuple[int, int]:
+    """(first, end) of the samples the ticks ``t_s`` read (:func:`tick_counts.sample_windows` of the first tick and of
+    the last two: the same floors as over all ticks)."""
+    first = tc.sample_windows(t_s[:1], dt_s, rate_hz)[0]
+    f, n = tc.sample_windows(t_s[-2:], dt_s, rate_hz)
+    return int(first[0]), int(f[-1] + n[-1])
 
 
 @njit(cache=True, inline="always")
-def _gauss_markov_draw(hi, lo, inc_hi, inc_lo, sigma, drive_sigma, phi, out):
+def _gauss_markov_draw(hi, lo, inc_hi, inc_lo, sigma, drive_sigma, phi, prev, first, out):
     """``out[k, i]`` (K, 3): the first-order Gauss-Markov bias of axis i at tick k, driven by the next 3 K normals
-    of the stream at state (hi, lo, inc_hi, inc_lo), normal 3 k + i: x_0 = sigma w_0, x_k = phi x_(k-1) +
-    sigma sqrt(1 - phi^2) w_k (``drive_sigma``; exact discretisation, thesis eqs 3.18-3.20; the recursion of
-    :func:`nodesim.sensors.noise.gauss_markov_from_normals`); zero, drawing nothing, when sigma is 0.  Returns
-    the new (hi, lo)."""
+    of the stream at state (hi, lo, inc_hi, inc_lo), normal 3 k + i: x_0 = sigma w_0 at the node's first tick
+    (``first``; else x_0 = phi prev_i + ..., going on from the bias ``prev`` (3,) of the tick before), x_k =
+    phi x_(k-1) + sigma sqrt(1 - phi^2) w_k (``drive_sigma``; exact discretisation, thesis eqs 3.18-3.20; the
+    recursion of :func:`nodesim.sensors.noise.gauss_markov_from_normals`); zero, drawing nothing, when sigma is 0.
+    Returns the new (hi, lo)."""
     if sigma == 0.0:
         out[:] = 0.0
         return hi, lo
     for k in range(out.shape[0]):
         for i in range(3):
             w, hi, lo = pcg64.normal(hi, lo, inc_hi, inc_lo)
-            out[k, i] = sigma * w if k == 0 else w * drive_sigma + phi * out[k - 1, i]
+            if k == 0:
+                out[k, i] = sigma * w if first else w * drive_sigma + phi * prev[i]
+            else:
+                out[k, i] = w * drive_sigma + phi * out[k - 1, i]
     return hi, lo
 
 
 @njit(cache=True)
-def _gauss_markov_bias(state, sigma, drive_sigma, phi, K):
+def _gauss_markov_bias(state, sigma, drive_sigma, phi, prev, first, K):
     """(K, 3) :func:`_gauss_markov_draw` of one realization's "gyro" stream at PCG64 ``state`` (4,)."""
     out = np.empty((K, 3))
-    _gauss_markov_draw(state[0], state[1], state[2], state[3], sigma, drive_sigma, phi, out)
+    _gauss_markov_draw(state[0], state[1], state[2], state[3], sigma, drive_sigma, phi, prev, first, out)
     return out
 
 
 @njit(cache=True, nogil=True)
-def _gauss_markov_z(states, sigma, drive_sigma, phi, gm_z, r_first, r_end) -> None:
-    """``gm_z[r]`` (K,): the z axis of :func:`_gauss_markov_draw` for realizations ``r_first`` .. ``r_end - 1``."""
+def _gauss_markov_z(states, sigma, drive_sigma, phi, last, first, gm_z, r_first, r_end) -> None:
+    """``gm_z[r]`` (K,): the z axis of :func:`_gauss_markov_draw` for realizations ``r_first`` .. ``r_end - 1``,
+    going on from ``last[r]`` (3,) unless ``first``; ``states`` and ``last`` advanced in place."""
     scratch = np.empty((gm_z.shape[1], 3))
     for r in range(r_first, r_end):
-        _gauss_markov_draw(states[r, 0], states[r, 1], states[r, 2], states[r, 3], sigma, drive_sigma, phi, scratch)
+        states[r, 0], states[r, 1] = _gauss_markov_draw(states[r, 0], states[r, 1], states[r, 2], states[r, 3], sigma,
+                                                        drive_sigma, phi, last[r], first, scratch)
         gm_z[r] = scratch[:, 2]
+        last[r] = scratch[-1]
 
 
 @njit(cache=True, nogil=True)
 def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma, gm_drive, gm_phi, n, n_after,
-               sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi, z_g, z_a, gyro, accel, g_sel, a_sel, gm_z, r_first,
-               r_end) -> None:
+               sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi, z_gm, z_g, z_a, gm_last, gm_first, chained, gyro, accel,
+               g_sel, a_sel, gm_z, r_first, r_end) -> None:
     """The direct tick-sum draws of every (realization r, tick k, axis i) and which ticks must be read per sample
     (:mod:`nodesim.sensors.tick_counts`), from the tick sums of the noise-free z-gyro (``usum_gz`` (K,)) and
     accelerometer (``usum_a`` (K, 3)) readings before tilt, bias and scale factor, and bounds ``umax_*`` on their
@@ -425,9 +357,10 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma,
     (u_g = (0, 0, usum_gz)); a tick is drawn directly while every axis' bound is valid (``valid_one``); the sum
     round_he(mean + spread_k z), spread_k = sqrt(n_k (sigma^2 + 1/12)) (:func:`~.tick_counts.draw_one`, its spread
     once per tick).  The
-    normals z, in order 3 k + i: realization r's "gyro" stream (``z_g``, PCG64 states) after the Gauss-Markov
-    drive b_gm (:func:`_gauss_markov_draw`; its z axis into ``gm_z``) and its "accel" stream (``z_a``), advanced
-    in place.  Realizations ``r_first`` .. ``r_end - 1``.  A block of TICK_SUM_BLOCK ticks' normals is drawn
+    normals z, in order 3 k + i: realization r's "gyro" stream after the Gauss-Markov drive b_gm
+    (:func:`_gauss_markov_draw` from the states ``z_gm``, going on from ``gm_last`` unless ``gm_first``; its z axis
+    into ``gm_z``), from where the drive ends when ``chained`` (the window is all of the node's ticks), else from
+    the states ``z_g``, and its "accel" stream (``z_a``); the states and ``gm_last`` advanced in place.  Realizations ``r_first`` .. ``r_end - 1``.  A block of TICK_SUM_BLOCK ticks' normals is drawn
     first, both streams in one tight loop (:func:`_two_streams_normals`), then used: ~20 % faster than drawing
     them inside the loop below (the generator's code and the arithmetic then share registers and branches), the
     same numbers; a block, not the realization's 6 K normals at once, so that they are still in the cache when
@@ -443,10 +376,14 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma,
     B = max(1, min(K, TICK_SUM_BLOCK))
     w_g, w_a = np.empty(3 * B), np.empty(3 * B)  # a block of ticks' normals, in stream order 3 k + i
     for r in range(r_first, r_end):
-        g_hi_s, g_lo_s, g_inc_hi, g_inc_lo = z_g[r, 0], z_g[r, 1], z_g[r, 2], z_g[r, 3]
+        g_inc_hi, g_inc_lo = z_gm[r, 2], z_gm[r, 3]  # the drive and the tick-sum normals: one stream
         a_hi_s, a_lo_s, a_inc_hi, a_inc_lo = z_a[r, 0], z_a[r, 1], z_a[r, 2], z_a[r, 3]
-        g_hi_s, g_lo_s = _gauss_markov_draw(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, gm_sigma, gm_drive, gm_phi, gm)
+        m_hi, m_lo = _gauss_markov_draw(z_gm[r, 0], z_gm[r, 1], g_inc_hi, g_inc_lo, gm_sigma, gm_drive, gm_phi,
+                                        gm_last[r], gm_first, gm)
+        z_gm[r, 0], z_gm[r, 1] = m_hi, m_lo
+        g_hi_s, g_lo_s = (m_hi, m_lo) if chained else (z_g[r, 0], z_g[r, 1])
         gm_z[r] = gm[:, 2]
+        gm_last[r] = gm[K - 1]
         for k0 in range(0, K, B):
             k1 = min(k0 + B, K)
             g_hi_s, g_lo_s, a_hi_s, a_lo_s = _two_streams_normals(g_hi_s, g_lo_s, g_inc_hi, g_inc_lo, a_hi_s, a_lo_s,
@@ -493,8 +430,9 @@ def _two_streams_normals(g_hi, g_lo, g_inc_hi, g_inc_lo, a_hi, a_lo, a_inc_hi, a
 
 
 def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: int, hi: int, starts: np.ndarray,
-                n: np.ndarray, streams: RunStreams, node_index: int, stream: str) -> np.ndarray:
-    """Overwrite the selected ticks (sel (R, K)) of ``out`` (R, K, 3) with per-sample sums; clipped readings (R,)."""
+                n: np.ndarray, states: np.ndarray) -> np.ndarray:
+    """Overwrite the selected ticks (sel (R, K)) of ``out`` (R, K, 3) with per-sample sums, their normals drawn from
+    each realization's stream (PCG64 ``states`` (R, 4), advanced by what it drew); clipped readings (R,)."""
     R = sel.shape[0]
     clipped = np.zeros(R, dtype=np.int64)
     if not sel.any():  # every tick drawn directly (tick_sum's common case): no pass over (R, K), no loop over R
@@ -508,8 +446,8 @@ def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: i
         r1 = r0 + 1  # a range of realizations whose normals fit in one chunk
         while r1 < R and (r1 + 1 - r0) * max(int(need[r0:r1 + 1].max()), 1) <= PER_SAMPLE_CHUNK_NORMALS:
             r1 += 1
-        sub = dataclasses.replace(streams, first_realization=streams.first_realization + r0)
-        w = sub.sensor_normals(r1 - r0, node_index, stream, int(need[r0:r1].max()))
+        w, counts = np.empty((r1 - r0, int(need[r0:r1].max()))), need[r0:r1]
+        threads.map_chunks(lambda a, b: pcg64.fill_normals_rows(states[r0 + a:r0 + b], counts[a:b], w[a:b]), r1 - r0)
         for r in range(r0, r1):
             ks = np.flatnonzero(sel[r])
             if ks.size == 0:

@@ -8,7 +8,7 @@ For a hole of inclination I and azimuth A (descending toward A) the high-side fr
 
 and the body axes are x_h, y_h rotated about z_h by the sensor toolface tau' = A - psi (psi = yaw from
 reference north), so that the specific force is f_b = g (sinI cos tau', sinI sin tau', cosI): exactly the
-model of :func:`nodesim.sensors.chain_imu.sensor_force` and the inverse of the firmware's survey resolution (eqs
+model of :func:`nodesim.sensors.sample_truth.sensor_force` and the inverse of the firmware's survey resolution (eqs
 1.1-1.3).  The geomagnetic field with total intensity F, dip D (positive down) and declination delta is
 B_NEU = F (cosD cos delta, cosD sin delta, -sinD).
 

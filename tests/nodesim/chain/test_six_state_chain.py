@@ -13,7 +13,7 @@ from nodesim.chain.metrics import per_realization_metrics, singularity_warning, 
 from nodesim.chain.network import simulate_chain
 from nodesim.chain.six_state import level_attitude
 from nodesim.scenario.schema import Scenario
-from nodesim.sensors.chain_imu import sensor_force
+from nodesim.sensors.sample_truth import sensor_force
 
 CFG = dict(dt_s=1 / 1.9, arw_rad_per_sqrt_s=(3e-4, 4e-4, 5e-4), bias_instability_rad_s=1e-4)
 

@@ -24,7 +24,8 @@ from nodesim.chain.network import simulate_chain
 from nodesim.chain.six_state import level_attitude
 from nodesim.chain.six_state_firmware_lanes import SixStateFirmwareLanes
 from nodesim.scenario.schema import Scenario
-from nodesim.sensors.chain_imu import ChainImu, sensor_force
+from nodesim.sensors.chain_imu import ChainImu
+from nodesim.sensors.sample_truth import sensor_force
 
 SCENARIO = Scenario().with_overrides(**{"filter.states": 6, "filter.implementation": "fixed",
                                         "filter.levelling": "static"})

@@ -5,6 +5,7 @@ import math
 import weakref
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -12,7 +13,7 @@ from nodesim.chain import network
 from nodesim.motion.chain_motion import build_motion
 from nodesim.rng.streams import RunStreams
 from nodesim.scenario.schema import Scenario
-from nodesim.sensors import chain_imu, noise
+from nodesim.sensors import chain_imu, noise, sample_truth
 
 
 @settings(max_examples=30, deadline=None)
@@ -23,7 +24,8 @@ def test_gauss_markov_kernel_is_the_numpy_recursion_bit_for_bit(seed, K, sigma, 
     streams = RunStreams(seed=seed, n_nodes=1)
     state = streams.sensor_states(1, 0, "gyro")
     phi = math.exp(-1.0 / tau_ticks)
-    got = chain_imu._gauss_markov_bias(state[0].copy(), sigma, sigma * math.sqrt(1.0 - phi * phi), phi, K)
+    got = chain_imu._gauss_markov_bias(state[0].copy(), sigma, sigma * math.sqrt(1.0 - phi * phi), phi, np.zeros(3), True,
+                                       K)
     if sigma == 0.0:
         assert not got.any()
         return
@@ -40,7 +42,7 @@ def test_prefix_sum_tick_sums_match_direct_sums():
     motion = build_motion(scenario)
     t = np.arange(1, 6000) / 1.9
     first, n = chain_imu.tc.sample_windows(t, 1 / 1.9, imu.sample_rate_hz)
-    truth = chain_imu.SampleTruth(imu, motion, int(first[0]) - 7, int(first[-1] + n[-1]) + 3)
+    truth = sample_truth.SampleTruth(imu, motion, int(first[0]) - 7, int(first[-1] + n[-1]) + 3)
     gz, a = truth.tick_sums(first, n)
     u_gz, u_a = truth.slice(int(first[0]), int(first[-1] + n[-1]))
     starts = first - first[0]
@@ -57,8 +59,8 @@ def test_a_truth_without_its_readings_computes_the_same_readings_again():
     imu = chain_imu.ChainImu.from_scenario(scenario)
     motion = build_motion(scenario)
     j_hi = int(1200 * imu.sample_rate_hz)
-    kept = chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True)
-    lean = chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True, keep_readings=False)
+    kept = sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True)
+    lean = sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True, keep_readings=False)
     assert lean.u_gz is None and lean.u_a is None
     rng = np.random.default_rng(3)
     for _ in range(12):
@@ -82,8 +84,8 @@ def test_the_truth_does_not_depend_on_the_block_it_is_computed_in(monkeypatch):
     j_hi = int(300 * imu.sample_rate_hz)  # the profile's first 300 s: its spin-up ramps and first turns
     built = []
     for block in (1, 7, 1000, 1 << 20):
-        monkeypatch.setattr(chain_imu, "TRUTH_BLOCK_SAMPLES", block)
-        built.append(chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True))
+        monkeypatch.setattr(sample_truth, "TRUTH_BLOCK_SAMPLES", block)
+        built.append(sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True))
     for other in built[1:]:
         assert np.array_equal(other._sums, built[0]._sums)
         assert np.array_equal(other.u_gz, built[0].u_gz) and np.array_equal(other.u_a, built[0].u_a)
@@ -102,7 +104,7 @@ def test_node_counts_falling_back_per_sample_read_the_truth_s_readings_again_the
     j_hi = int(400 * imu.sample_rate_hz) + 1
     out = []
     for keep in (True, False):
-        truth = chain_imu.SampleTruth(imu, motion, -34, j_hi, shared=True, keep_readings=keep)
+        truth = sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True, keep_readings=keep)
         out.append(chain_imu.node_counts(imu, motion, RunStreams(seed=9, n_nodes=2), 1, t, 1 / 1.9, 2, truth))
     assert out[0].per_sample_ticks > 0  # it did fall back
     for name in ("gyro_counts", "accel_counts", "gyro_clipped_samples", "true_bias_rad_s"):
@@ -130,3 +132,77 @@ def test_a_finished_run_frees_its_network_without_the_cyclic_collector():
     finally:
         gc.enable()
         network.Network.__init__ = init
+
+
+def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, cuts: list[int]) -> int:
+    """A node's counts read window by window (:class:`chain_imu.NodeImuStream`, windows cut at ``cuts``) equal, tick
+    for tick, its counts read in one window (:func:`chain_imu.node_counts`); returns the per-sample ticks."""
+    scenario = Scenario.model_validate(scenario_keys)
+    imu = chain_imu.ChainImu.from_scenario(scenario)
+    motion = build_motion(scenario)
+    R, dt = scenario.simulation.realizations, 1 / 1.9
+    j_hi = int(scenario.simulation.duration_s * imu.sample_rate_hz) + 1
+    truth = sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True) if shared else None
+    whole = chain_imu.node_counts(imu, motion, RunStreams(seed=5, n_nodes=2), 1, t, dt, R, truth)
+    stream = chain_imu.NodeImuStream(imu, motion, RunStreams(seed=5, n_nodes=2), 1, t, dt, R, truth)
+    edges = [0, *cuts, t.size]
+    parts = [stream.counts(a, b, truth) for a, b in zip(edges[:-1], edges[1:])]
+    for name, axis in (("gyro_counts", 1), ("accel_counts", 1), ("samples", 0), ("true_bias_rad_s", 1)):
+        assert np.array_equal(np.concatenate([getattr(p, name) for p in parts], axis=axis), getattr(whole, name)), name
+    for name in ("gyro_clipped_samples", "accel_clipped_samples"):
+        assert np.array_equal(sum(getattr(p, name) for p in parts), getattr(whole, name)), name
+    assert sum(p.per_sample_ticks for p in parts) == whole.per_sample_ticks
+    assert all(np.array_equal(p.tilt_rad, whole.tilt_rad) for p in parts)
+    return whole.per_sample_ticks
+
+
+def test_a_node_read_in_windows_of_ticks_reads_what_it_reads_at_once():
+    """Tick sums drawn directly (the Gauss-Markov drive carried over each cut, the tick-sum normals found after the
+    whole drive), from the shared truth or from the node's own truth continued window to window; windows of one
+    tick, uneven ones, and a cut right after the first tick."""
+    keys = {"chain": {"nodes": 2}, "simulation": {"duration_s": 600.0, "realizations": 3},
+            "metrics": {"window_start_s": 0.0, "window_end_s": 600.0}}
+    t = np.arange(1, 1100) / 1.9 + 0.013
+    for shared in (True, False):
+        for cuts in ([1], [1, 2, 3, 500, 501, 1097], [137, 700]):
+            assert _windows_equal_one_window(keys, t, shared, cuts) == 0
+    keys["sensor"] = {"gyro_bias_instability_deg_s": 0.0}  # no drive: the tick-sum normals start the stream
+    assert _windows_equal_one_window(keys, t, True, [1, 600]) == 0
+
+
+def test_windows_of_ticks_fall_back_per_sample_as_at_once():
+    """Near the gyro's full scale (250 deg/s, turning at 249) the same ticks fall back to per-sample sums, with the
+    same normals (each realization's per-sample stream goes on from window to window), and ``per_sample`` sampling
+    reads every tick per sample the same in windows."""
+    keys = {"chain": {"nodes": 2}, "simulation": {"duration_s": 400.0, "realizations": 2},
+            "motion": {"fast_rate_deg_s": 249.0, "fast_turns": 10.0},
+            "metrics": {"window_start_s": 300.0, "window_end_s": 400.0}}
+    t = np.arange(1, 750) / 1.9 + 0.013
+    assert _windows_equal_one_window(keys, t, True, [100, 333, 334, 600]) > 0
+    keys["sensor"] = {"sampling": "per_sample"}
+    assert _windows_equal_one_window(keys, t[:300], True, [17, 150]) == 2 * 2 * 300
+
+
+def test_windows_must_follow_each_other():
+    scenario = Scenario.model_validate({"chain": {"nodes": 2}})
+    imu = chain_imu.ChainImu.from_scenario(scenario)
+    t = np.arange(1, 50) / 1.9
+    stream = chain_imu.NodeImuStream(imu, build_motion(scenario), RunStreams(seed=5, n_nodes=2), 1, t, 1 / 1.9, 1)
+    stream.counts(0, 10)
+    with pytest.raises(ValueError, match=r"ticks \[11, 20\) do not follow tick 10"):
+        stream.counts(11, 20)
+
+
+def test_a_truth_continued_from_another_sums_as_one_truth_over_both():
+    """``start_sums``: a truth over [b, c) continuing one over [a, b) has the prefix sums of one truth over [a, c),
+    bit for bit (without them it would restart at 0, and its tick sums would differ in their last bits)."""
+    scenario = Scenario.model_validate({"chain": {"nodes": 2}, "simulation": {"duration_s": 600.0}})
+    imu = chain_imu.ChainImu.from_scenario(scenario)
+    motion = build_motion(scenario)
+    a, b, c = -34, 20_011, 38_000
+    one = sample_truth.SampleTruth(imu, motion, a, c, 1)
+    head = sample_truth.SampleTruth(imu, motion, a, b, 1)
+    tail = sample_truth.SampleTruth(imu, motion, b, c, 1, start_sums=head.end_sums)
+    assert np.array_equal(np.concatenate([head._sums[:-1], tail._sums]), one._sums)
+    restarted = sample_truth.SampleTruth(imu, motion, b, c, 1)
+    assert not np.array_equal(restarted._sums[1:] + head.end_sums, one._sums[b - a + 1:])

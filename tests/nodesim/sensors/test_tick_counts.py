@@ -184,7 +184,7 @@ def test_azimuth_error_grows_with_the_residual_tilt():
 @settings(max_examples=50, deadline=None)
 @given(st.floats(0.0, 3.2), st.floats(0.0, 6.3), st.floats(-1e3, 1e3))
 def test_sensor_force_is_the_body_frame_gravity(inc, azi, yaw):
-    from nodesim.sensors.chain_imu import sensor_force
+    from nodesim.sensors.sample_truth import sensor_force
     from nodesim.sensors.magnetometer import specific_force_body
 
     assert np.allclose(sensor_force(inc, azi, yaw), specific_force_body(inc, azi, yaw), rtol=0, atol=1e-12)
