@@ -45,7 +45,7 @@ def _phase2_ns_per_node_tick(scenario: Scenario) -> tuple[float, float]:
         t0 = time.perf_counter()
         inner(*args)
         spent[0] += time.perf_counter() - t0
-        lane_ticks[0] += int(args[9]) * (int(args[31]) - int(args[30]))  # k_end x (r_end - r_first)
+        lane_ticks[0] += int(args[9]) * (int(args[32]) - int(args[31]))  # k_end x (r_end - r_first)
 
     engine.filters.run_node_firmware = timed
     try:

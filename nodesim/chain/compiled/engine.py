@@ -442,9 +442,9 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
         if n > 0:
-            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, *rx, r0, r1)
+            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, WHOLE_FRAMES, *rx, r0, r1)
         filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts,
-                                  sig.samples, t, codes, k_end,
+                                  sig.samples, t, codes, k_end, True,
                                   node.applied, yaw_enc, enc_rate, back_us, offset, src_tick,
                                   tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
                                   bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *six,
@@ -454,12 +454,16 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     fw.counts += sum(threads.map_chunks(run, R))
     if n < net.n_nodes - 1:  # the bottom node sends nothing
         status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
-            node.node_id, node.first_tick, net.forward_every_tick, node.running, k_first, k_end, node.applied, t,
+            node.node_id, node.first_tick, net.forward_every_tick, node.running, k_first, k_end, 0, node.applied, t,
             node.yaw_raw, node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
         if status < 0:
             name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
             raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
                                f"field (firmware_model/frames.py); the build's format is wider than the frame")
+
+
+WHOLE_FRAMES = np.zeros(2, np.int64)
+""":func:`.frame_pass.receive_frames`' ``up_first`` where the senders' frames are there from their first tick."""
 
 
 ATTACH_AHEAD = 2

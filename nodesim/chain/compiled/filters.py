@@ -86,13 +86,15 @@ def sequential_sum(gyro, stop: int):
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_samples, t, codes, k_end, applied,
+def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_samples, t, codes, k_end, init, applied,
                       enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t, rx_yaw_raw, rx_var_raw,
                       inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var, bias, ref_yaw, ref_var, r_first,
                       r_end, six, params6, lane0, work) -> None:
     """The fixed-point firmware (:func:`firmware_model.node_firmware.node_tick`, or with ``six`` the 6-state node's
     :func:`firmware_model.six_state_firmware.node_tick`: ``params6``, ``lane0``, ``work`` its build, initial lane and
-    scratch) of one node over ticks 0 .. ``k_end - 1`` in realizations ``r_first`` .. ``r_end - 1``, each tick as
+    scratch) of one node over ticks 0 .. ``k_end - 1`` of the arrays in realizations ``r_first`` .. ``r_end - 1``
+    (the node's ticks from its first, ``init``: its lanes start there; else a window of them that goes on from the
+    lanes where the window before left them: the same words as one call over both), each tick as
     ``codes`` says (:mod:`.tick_plan`): static window, the filter's start, holding, or predict and the reference
     phase 1 chose (the encoder reply read ``enc_back_us``
     after the tick for the top node; for the others ``rx_*_raw[r, k]``, the yaw and P_yy words decoded from the
@@ -103,9 +105,9 @@ def run_node_firmware(states, params, fparams, counts, gyro_sums, accel_sums, n_
     sy, syy, sb = fxk.float_scales(fparams)  # the records' floats without an ldexp call per tick (~15 % of it)
     for r in range(r_first, r_end):
         st, x, o = states[r], inp[r], out[r]
-        if six:
+        if init and six:
             n6.init_lane(st)
-        else:
+        elif init:
             nf.init_lane(st)
         for k in range(k_end):
             c = codes[k]

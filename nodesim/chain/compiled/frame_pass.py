@@ -28,25 +28,30 @@ from firmware_model import frames as fr
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def receive_frames(src_node, src_tick, k_first, k_end, up_frames, rx_yaw_raw, rx_var_raw, r_first, r_end):
-    """``rx_*_raw[r, k]`` = the words of the frame taken at tick k (``src_node`` (R, K): 1 or 2, 0 for none)."""
+def receive_frames(src_node, src_tick, k_first, k_end, up_frames, up_first, rx_yaw_raw, rx_var_raw, r_first, r_end):
+    """``rx_*_raw[r, k]`` = the words of the frame taken at tick k (``src_node`` (R, K): 1 or 2, 0 for none) from
+    the sender's frame of its tick j = ``src_tick[r, k]``, row j - ``up_first[s - 1]`` of ``up_frames[s - 1]`` (the
+    sender's frames from its tick ``up_first`` on: 0 where they are all there)."""
     for r in range(r_first, r_end):
         for k in range(k_first, k_end):
-            if src_node[r, k] > 0:
-                rx_yaw_raw[r, k], rx_var_raw[r, k] = fr.estimate_words(up_frames[src_node[r, k] - 1][r, src_tick[r, k]])
+            s = src_node[r, k]
+            if s > 0:
+                j = src_tick[r, k] - up_first[s - 1]
+                rx_yaw_raw[r, k], rx_var_raw[r, k] = fr.estimate_words(up_frames[s - 1][r, j])
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def send_frames(node_id, first_tick, every_tick, running, k_first, k_end, applied, t, yaw_raw, var_raw, rate_raw,
-                bias_raw, frames, words, r_first, r_end) -> int:
+def send_frames(node_id, first_tick, every_tick, running, k_first, k_end, k_base, applied, t, yaw_raw, var_raw,
+                rate_raw, bias_raw, frames, words, r_first, r_end) -> int:
     """``frames[r, k]`` = the estimate frame sent at tick k (k_first .. k_end - 1, where ``applied[r, k]``, or
-    ``every_tick`` and the node ran that tick (not holding)); returns the lowest encoder status (< 0: a word did
+    ``every_tick`` and the node ran that tick (not holding)); the arrays begin at the node's tick ``k_base`` (a
+    window of its ticks: its seq is k_base + k - first_tick); returns the lowest encoder status (< 0: a word did
     not fit its field)."""
     worst = 0
     for r in range(r_first, r_end):
         for k in range(k_first, k_end):
             if applied[r, k] or (every_tick and running[k]):
-                s = fr.encode_estimate(node_id, k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
+                s = fr.encode_estimate(node_id, k_base + k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
                                        var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r], frames[r, k])
                 worst = min(worst, s)
     return worst

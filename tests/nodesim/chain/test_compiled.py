@@ -314,3 +314,66 @@ def test_compiled_engine_matches_the_event_engine_with_six_states(name):
 def test_six_state_runs_are_deterministic(name):
     s = Scenario().with_overrides(**SIX_STATE[name])
     assert_identical(simulate_chain(s), simulate_chain(s))
+
+
+def _in_windows(ticks: int, width: int):
+    return [(k0, min(k0 + width, ticks)) for k0 in range(0, ticks, width)]
+
+
+def _contiguous(a, k0, k1):
+    return np.ascontiguousarray(a[k0:k1] if a.ndim == 1 else a[:, k0:k1])
+
+
+FIRMWARE_TICK_ARGS = (4, 5, 6, 7, 8, 11, 12, 13, 14, 15, 16, 18, 19, 22, 23, 24, 25, 26, 27, 28, 29, 30)
+""":func:`filters.run_node_firmware`'s per-tick arrays (by position); its outputs from 22 on."""
+
+
+@pytest.mark.parametrize("name", ["fixed, drilling, every tick, dead node",
+                                  "fixed, drilling, arbitrary schedule, per-node clocks"])
+def test_the_firmware_passes_in_windows_of_ticks_give_the_same_run(monkeypatch, name):
+    """Phase 2's firmware loop, frame decoding and frame encoding take a window of a node's ticks (lanes carried,
+    the senders' frames from a later tick on, the frames' seq from the window's first tick): run in windows of 23
+    ticks, and with each sender's frames cut before the first one taken, every record is the same as in one pass."""
+    over = {**FIXED[name], "simulation.engine": "compiled"}
+    whole = simulate_chain(Scenario().with_overrides(**over))
+    firmware, receive, send = (engine.filters.run_node_firmware, engine.frame_pass.receive_frames,
+                               engine.frame_pass.send_frames)
+    calls = {"firmware": 0, "receive": 0, "send": 0}
+
+    def firmware_windows(*args):
+        k_end = args[9]
+        for k0, k1 in _in_windows(k_end, 23) or [(0, 0)]:
+            a = [_contiguous(x, k0, k1) if i in FIRMWARE_TICK_ARGS else x for i, x in enumerate(args)]
+            a[9], a[10] = k1 - k0, k0 == 0
+            firmware(*a)
+            for i in FIRMWARE_TICK_ARGS[13:]:
+                args[i][:, k0:k1] = a[i]
+            calls["firmware"] += 1
+
+    def receive_from_first_taken(src_node, src_tick, k_first, k_end, up_frames, up_first, *rest):
+        taken = [src_tick[src_node == s] for s in (1, 2)]
+        first = np.array([int(j.min()) if j.size else 0 for j in taken], np.int64)
+        cut = tuple(np.ascontiguousarray(f[:, j:]) for f, j in zip(up_frames, first))
+        receive(src_node, src_tick, k_first, k_end, cut, first, *rest)
+        calls["receive"] += int(first.any())
+
+    def send_windows(node_id, first_tick, every, running, k_first, k_end, k_base, applied, t, *rest):
+        *words, frames, scratch, r0, r1 = rest
+        worst = 0
+        for w0, w1 in _in_windows(t.size, 23):
+            lo, hi = max(k_first, w0), min(k_end, w1)
+            if lo >= hi:
+                continue
+            out = _contiguous(frames, w0, w1)
+            worst = min(worst, send(node_id, first_tick, every, running[w0:w1].copy(), lo - w0, hi - w0, w0,
+                                    _contiguous(applied, w0, w1), t[w0:w1].copy(),
+                                    *(_contiguous(x, w0, w1) for x in words), out, scratch, r0, r1))
+            frames[:, w0:w1] = out
+            calls["send"] += 1
+        return worst
+
+    monkeypatch.setattr(engine.filters, "run_node_firmware", firmware_windows)
+    monkeypatch.setattr(engine.frame_pass, "receive_frames", receive_from_first_taken)
+    monkeypatch.setattr(engine.frame_pass, "send_frames", send_windows)
+    assert_identical(whole, simulate_chain(Scenario().with_overrides(**over)))
+    assert calls["firmware"] > 40 and calls["receive"] > 0 and calls["send"] > 10
