@@ -37,7 +37,6 @@ import warnings
 import numpy as np
 from numba import njit
 
-from firmware_model.survey_resolution import circular_moving_average, trailing_moving_average
 from nodesim.chain.linkmetrics import link_metrics
 from nodesim.chain.records import ChainRun, NodeRun
 from nodesim.motion.timelines import ChainMotion
@@ -57,10 +56,6 @@ PER_NODE_KEYS = (
 )
 
 
-def _rms(x: np.ndarray, axis: int = -1) -> np.ndarray:
-    return np.sqrt(np.mean(np.square(x), axis=axis))
-
-
 def metric_ticks(node: NodeRun, windows) -> np.ndarray:
     """(K,) bool: the node's ticks inside any metrics window [a, b] where its filter runs.  The tick times
     increase (:func:`nodesim.chain.faults.stepped_ticks`), so a window is the index range
@@ -76,39 +71,97 @@ def metric_ticks(node: NodeRun, windows) -> np.ndarray:
 
 def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: float, hold_s: float) -> np.ndarray:
     """Per realization: first time after ``after_s`` from which |b_hat - b| <= tol for ``hold_s`` (h =
-    ceil(hold_s / dt) ticks in a row: the first i of the running ticks after ``after_s`` with
-    c[i + h] - c[i] = h, c the running count of the ticks inside the band, O(K) whatever h)."""
+    ceil(hold_s / dt) ticks in a row, dt the node's first tick step: the start of the first run of h running ticks
+    after ``after_s`` inside the band, :func:`_hold_runs`); NaN if none."""
     t = node.t_s
     idx_after = np.flatnonzero((t >= after_s) & node.running)
-    # only the ticks after after_s: a drilling day's last rotation ends late, the band test of every tick cost
-    # three (R, K) temporaries a node
-    inside = np.abs(node.bias_est_rad_s[:, idx_after] - node.true_bias_rad_s[:, idx_after]) <= tolerance_rad_s
-    dt = t[1] - t[0] if t.size > 1 else 1.0
-    hold_ticks = max(int(math.ceil(hold_s / dt)), 1)
-    out = np.full(inside.shape[0], np.nan)
+    R = node.bias_est_rad_s.shape[0]
+    run = (np.zeros(R, np.int64), np.full(R, np.nan), np.full(R, np.nan))  # run length, its first tick, found
+    _hold_runs(np.abs(node.bias_est_rad_s[:, idx_after] - node.true_bias_rad_s[:, idx_after]) <= tolerance_rad_s,
+               t[idx_after], _hold_ticks(t, hold_s), *run)
+    return run[2] - after_s
+
+
+def _hold_ticks(t_s: np.ndarray, hold_s: float) -> int:
+    """ceil(hold_s / dt) (at least 1), dt = t_1 - t_0 (1 s for a node of one tick)."""
+    dt = t_s[1] - t_s[0] if t_s.size > 1 else 1.0
+    return max(int(math.ceil(hold_s / dt)), 1)
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def _hold_runs(inside, t, hold, length, start, found) -> None:
+    """Per realization r not yet ``found``: the runs of consecutive True in ``inside[r]`` (ticks at ``t``), going on
+    from the run carried in (``length[r]`` ticks from ``start[r]``); ``found[r]`` = the first tick of the first run
+    that reaches ``hold`` ticks.  The run is carried out, so ticks given window by window find what they find at
+    once (the same first tick, the same time)."""
     for r in range(inside.shape[0]):
-        ok = inside[r]
-        if ok.size < hold_ticks:
+        if not np.isnan(found[r]):
             continue
-        count = np.concatenate(([0], np.cumsum(ok, dtype=np.int64)))
-        hits = np.flatnonzero(count[hold_ticks:] - count[:-hold_ticks] == hold_ticks)
-        if hits.size:
-            out[r] = t[idx_after[hits[0]]] - after_s
-    return out
+        n, t0 = length[r], start[r]
+        for i in range(inside.shape[1]):
+            if not inside[r, i]:
+                n = 0
+                continue
+            if n == 0:
+                t0 = t[i]
+            n += 1
+            if n >= hold:
+                found[r] = t0
+                break
+        length[r], start[r] = n, t0
+
+
+class _TrailingSums:
+    """:func:`~firmware_model.survey_resolution.trailing_moving_average` of a series given window by window (R, n)
+    along its last axis: the same prefix sums (numpy's cumsum adds in order; the last one is carried in), the same
+    differences and divisions, so the same bits as over the whole series at once."""
+
+    def __init__(self, points: int, R: int):
+        self.points, self.seen = points, 0
+        self.tail = np.zeros((R, 0))  # the last min(seen, points) prefix sums
+
+    def add(self, x: np.ndarray) -> np.ndarray:
+        n, m, p = x.shape[1], self.tail.shape[1], self.points
+        csum = np.cumsum(np.concatenate([self.tail[:, -1:], x], axis=1), axis=1)[:, 1:] if m else np.cumsum(x, axis=1)
+        k = self.seen + np.arange(n)  # the series' indices of this window
+        out = csum.copy()
+        late = k >= p
+        out[:, late] = csum[:, late] - np.concatenate([self.tail, csum], axis=1)[:, k[late] - p - (self.seen - m)]
+        out /= np.minimum(k + 1, p)
+        self.tail = np.concatenate([self.tail, csum], axis=1)[:, -p:]
+        self.seen += n
+        return out
+
+
+class _OutputAverage:
+    """:func:`output_average` window by window: from the node's first finite sample on, ``points``-point trailing
+    averages of the inclination and of the azimuth's unit vector (:func:`_TrailingSums`)."""
+
+    def __init__(self, points: int, R: int):
+        self.points = points
+        self.sums = [_TrailingSums(points, R) for _ in range(3)] if points > 1 else None
+        self.started = False
+
+    def add(self, inclination_rad: np.ndarray, azimuth_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.sums is None:
+            return inclination_rad, azimuth_rad
+        inc, azi = inclination_rad.copy(), azimuth_rad.copy()
+        a = 0
+        if not self.started:
+            finite = np.flatnonzero(np.isfinite(inc[0]))
+            if not finite.size:
+                return inc, azi
+            a, self.started = int(finite[0]), True
+        inc_s, cos_s, sin_s = self.sums
+        inc[:, a:] = inc_s.add(inc[:, a:])
+        azi[:, a:] = np.remainder(np.arctan2(sin_s.add(np.sin(azi[:, a:])), cos_s.add(np.cos(azi[:, a:]))), 2.0 * math.pi)
+        return inc, azi
 
 
 def output_average(node: NodeRun, points: int) -> tuple[np.ndarray, np.ndarray]:
     """Reported (inclination, azimuth) after a further ``points``-point moving average from the node's first
     finite sample (``points`` = 1: unchanged)."""
-    if points <= 1:
-        return node.inclination_rad, node.azimuth_rad
-    inc, azi = node.inclination_rad.copy(), node.azimuth_rad.copy()
-    finite = np.flatnonzero(np.isfinite(inc[0]))
-    if finite.size:
-        a = finite[0]
-        inc[:, a:] = trailing_moving_average(inc[:, a:], points)
-        azi[:, a:] = circular_moving_average(azi[:, a:], points)
-    return inc, azi
+    return _OutputAverage(points, node.inclination_rad.shape[0]).add(node.inclination_rad, node.azimuth_rad)
 
 
 def reference_attitude(true_inclination_rad: np.ndarray, true_azimuth_rad: np.ndarray,
@@ -130,37 +183,79 @@ def reference_attitude(true_inclination_rad: np.ndarray, true_azimuth_rad: np.nd
 
 def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> dict[str, np.ndarray]:
     """Metric arrays of shape (R,) for one node, in edge units (deg, s) (``motion``: the run's metric windows and
-    the end of its last rotation)."""
-    sel = metric_ticks(node, motion.metric_windows)
-    idx = np.flatnonzero(sel)  # the same elements in the same order as the mask, found once: a drilling day's
-    # node selects ~5 % of its ~160 k ticks, and each boolean index over (R, K) counted and found them again
-    R = node.yaw_est_rad.shape[0]
-    inc, azi = output_average(node, window.output_moving_average_points)
-    ref_inc, ref_azi = reference_attitude(node.true_inclination_rad[idx], node.true_azimuth_rad[idx],
-                                          node.reference_error_rad)
-    azi_err = wrap_pi(azi[:, idx] - ref_azi)
-    inc_err = inc[:, idx] - ref_inc
-    yaw_err = wrap_pi(node.yaw_est_rad[:, idx] - node.true_yaw_rad[idx])
-    update = node.update_mask[:, idx]
-    envelope = np.where(~update, np.abs(yaw_err), -np.inf).max(axis=1, initial=-np.inf)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows (no update) give NaN on purpose
-        age = np.nanmean(np.where(update, node.update_age_s[:, idx], np.nan), axis=1)
-    convergence = bias_convergence_time_s(
-        node, motion.rotation_end_s, math.radians(window.bias_tolerance_deg_s), window.bias_hold_s
-    )
-    nan = np.full(R, np.nan)
-    return {
-        "rms_azimuth_error_deg": rad_to_deg(_rms(azi_err)) if idx.size else nan,
-        "rms_inclination_error_deg": rad_to_deg(_rms(inc_err)) if idx.size else nan,
-        "rms_yaw_error_deg": rad_to_deg(_rms(yaw_err)) if idx.size else nan,
-        "max_timeout_yaw_error_deg": np.where(np.isfinite(envelope), rad_to_deg(envelope), np.nan),
-        "bias_convergence_time_s": convergence,
-        "bias_converged_fraction": np.isfinite(convergence).astype(float),
-        "update_fraction": update.mean(axis=1) if idx.size else nan,
-        "mean_update_age_s": age,
-        "max_time_since_update_s": max_time_since_update_s(node, sel),
-    }
+    the end of its last rotation): :class:`NodeMetricSums` of all its ticks at once."""
+    sums = NodeMetricSums(motion, window, node.yaw_est_rad.shape[0], _hold_ticks(node.t_s, window.bias_hold_s))
+    sums.add(node)
+    return sums.metrics()
+
+
+class NodeMetricSums:
+    """The sums and carried states behind :func:`node_metrics`, fed a node's records window by window of its ticks
+    (:meth:`add`: consecutive :class:`NodeRun` pieces, :meth:`NodeRun.ticks`), so that a run need not hold them
+    whole.  Per realization: the sums of the squared azimuth, inclination and yaw errors over the metric ticks and
+    their count, the timeout envelope (a max), the updates and the sum and count of their ages, the output average's
+    prefix sums (:class:`_OutputAverage`), the bias band's run (:func:`_hold_runs`) and the last update and longest
+    time since one (:func:`_max_time_since_update`).  All ticks in one window: the values of the whole-run
+    definitions, bit for bit; in several windows the same, except the RMS errors and the mean age, whose window
+    sums are added (numpy sums each window pairwise): equal to rounding (~1e-15 relative; tested)."""
+
+    def __init__(self, motion: ChainMotion, window: MetricsSection, R: int, hold_ticks: int):
+        self.motion, self.window, self.R, self.hold_ticks = motion, window, R, hold_ticks
+        self.ticks = 0  # metric ticks
+        self.squares = np.zeros((3, R))  # azimuth, inclination, yaw errors [rad^2]
+        self.envelope = np.full(R, -np.inf)
+        self.updates = np.zeros(R)
+        self.age_sum, self.age_count = np.zeros(R), np.zeros(R, np.int64)
+        self.average = _OutputAverage(window.output_moving_average_points, R)
+        self.band = (np.zeros(R, np.int64), np.full(R, np.nan), np.full(R, np.nan))  # :func:`_hold_runs`' carry
+        self.since = (np.full(R, -np.inf), np.full(R, -np.inf), np.zeros(R, np.bool_))  # last update, max, NaN seen
+
+    def add(self, node: NodeRun) -> None:
+        """The records of the node's next ticks."""
+        w, motion = self.window, self.motion
+        sel = metric_ticks(node, motion.metric_windows)
+        idx = np.flatnonzero(sel)  # the same elements in the same order as the mask, found once: a drilling day's
+        # node selects ~5 % of its ~160 k ticks, and each boolean index over (R, K) counted and found them again
+        inc, azi = self.average.add(node.inclination_rad, node.azimuth_rad)
+        if idx.size:
+            ref_inc, ref_azi = reference_attitude(node.true_inclination_rad[idx], node.true_azimuth_rad[idx],
+                                                  node.reference_error_rad)
+            yaw_err = wrap_pi(node.yaw_est_rad[:, idx] - node.true_yaw_rad[idx])
+            for i, err in enumerate((wrap_pi(azi[:, idx] - ref_azi), inc[:, idx] - ref_inc, yaw_err)):
+                self.squares[i] += np.add.reduce(np.square(err), axis=-1)
+            update = node.update_mask[:, idx]
+            np.maximum(self.envelope, np.where(~update, np.abs(yaw_err), -np.inf).max(axis=1), out=self.envelope)
+            self.updates += np.add.reduce(update, axis=1, dtype=float)
+            ages = np.where(update, node.update_age_s[:, idx], np.nan)
+            known = ~np.isnan(ages)
+            self.age_sum += np.add.reduce(np.where(known, ages, 0.0), axis=1)
+            self.age_count += known.sum(axis=1)
+            self.ticks += idx.size
+        _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
+                               sel, float(node.filter_start_s), *self.since)  # (updates move it on in any window)
+        after = np.flatnonzero((node.t_s >= motion.rotation_end_s) & node.running)
+        inside = np.abs(node.bias_est_rad_s[:, after] - node.true_bias_rad_s[:, after]) <= math.radians(
+            w.bias_tolerance_deg_s)
+        _hold_runs(inside, node.t_s[after], self.hold_ticks, *self.band)
+
+    def metrics(self) -> dict[str, np.ndarray]:
+        """The node's metrics (:func:`node_metrics`) from the ticks added."""
+        nan, n = np.full(self.R, np.nan), self.ticks
+        convergence = self.band[2] - self.motion.rotation_end_s
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # no update: NaN on purpose (0 / 0)
+            age = self.age_sum / self.age_count
+        return {
+            "rms_azimuth_error_deg": rad_to_deg(np.sqrt(self.squares[0] / n)) if n else nan,
+            "rms_inclination_error_deg": rad_to_deg(np.sqrt(self.squares[1] / n)) if n else nan,
+            "rms_yaw_error_deg": rad_to_deg(np.sqrt(self.squares[2] / n)) if n else nan,
+            "max_timeout_yaw_error_deg": np.where(np.isfinite(self.envelope), rad_to_deg(self.envelope), np.nan),
+            "bias_convergence_time_s": convergence,
+            "bias_converged_fraction": np.isfinite(convergence).astype(float),
+            "update_fraction": self.updates / n if n else nan,
+            "mean_update_age_s": age,
+            "max_time_since_update_s": np.where(self.since[2], np.nan, self.since[1]) if n else nan,
+        }
 
 
 def max_time_since_update_s(node: NodeRun, sel: np.ndarray) -> np.ndarray:
@@ -168,28 +263,30 @@ def max_time_since_update_s(node: NodeRun, sel: np.ndarray) -> np.ndarray:
     ``sel``: max over k in sel of t_k - max(t_last update <= k, t_start), NaN where a tick of ``sel`` lies before
     the start (or ``sel`` is empty).  One compiled pass (:func:`_max_time_since_update`) instead of four (R, K)
     arrays: the same values (a max of the same differences)."""
-    out = np.full(node.update_mask.shape[0], np.nan)
-    if sel.any():
-        _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
-                               np.ascontiguousarray(sel), float(node.filter_start_s), out)
-    return out
+    R = node.update_mask.shape[0]
+    since = (np.full(R, -np.inf), np.full(R, -np.inf), np.zeros(R, np.bool_))
+    if not sel.any():
+        return np.full(R, np.nan)
+    _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
+                           np.ascontiguousarray(sel), float(node.filter_start_s), *since)
+    return np.where(since[2], np.nan, since[1])
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def _max_time_since_update(t, update, sel, start, out) -> None:
-    """``out[r]`` = :func:`max_time_since_update_s` of realization r (numpy's max: NaN if any value is NaN)."""
+def _max_time_since_update(t, update, sel, start, last, best, seen_nan) -> None:
+    """Per realization r, over ticks k: ``last[r]`` the latest update's time, ``best[r]`` the max over the ``sel``
+    ticks of t_k - max(last, start), ``seen_nan[r]`` whether a ``sel`` tick lay before the start (numpy's max:
+    NaN then); carried in and out, so ticks given window by window give what they give at once."""
     for r in range(update.shape[0]):
-        last, best, seen_nan = -np.inf, -np.inf, False
         for k in range(t.size):
             if update[r, k]:
-                last = max(last, t[k])
+                last[r] = max(last[r], t[k])
             if sel[k]:
-                v = t[k] - max(last, start) if t[k] >= start else np.nan
+                v = t[k] - max(last[r], start) if t[k] >= start else np.nan
                 if np.isnan(v):
-                    seen_nan = True
-                elif v > best:
-                    best = v
-        out[r] = np.nan if seen_nan else best
+                    seen_nan[r] = True
+                elif v > best[r]:
+                    best[r] = v
 
 
 def per_realization_metrics(run: ChainRun, window: MetricsSection) -> dict[str, np.ndarray]:

@@ -5,7 +5,7 @@ per-tick records are streamed out and dropped (:class:`NodeSummary`).  Data type
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -55,6 +55,13 @@ class NodeRun:
     # the sensor readings (nodesim.chain.sensing.NodeSignals) behind gyro_rad_s and specific_force
     readings: object | None = None
 
+    def ticks(self, k0: int, k1: int) -> "NodeRun":
+        """The records of ticks ``k0`` .. ``k1 - 1`` (views; without the sensor readings object): a window of the
+        node's ticks, as :class:`nodesim.chain.metrics.NodeMetricSums` takes them."""
+        cut = {name: getattr(self, name) for name in TICK_FIELDS + REALIZATION_TICK_FIELDS}
+        cut = {name: x[k0:k1] if name in TICK_FIELDS else x[:, k0:k1] for name, x in cut.items() if x is not None}
+        return replace(self, **cut, readings=None)
+
     @property
     def gyro_rad_s(self) -> np.ndarray | None:
         """(R, K) tick-averaged z gyro [rad/s] (converted from the counts when first read)."""
@@ -64,6 +71,14 @@ class NodeRun:
     def specific_force(self) -> np.ndarray | None:
         """(R, K, 3) tick-averaged specific force [m/s^2], sensor frame (converted when first read)."""
         return None if self.readings is None else self.readings.specific_force
+
+
+TICK_FIELDS = ("t_s", "running", "true_yaw_rad", "true_inclination_rad", "true_azimuth_rad", "samples")
+""":class:`NodeRun`'s (K,) records."""
+REALIZATION_TICK_FIELDS = ("update_mask", "update_age_s", "yaw_est_rad", "yaw_var_rad2", "true_bias_rad_s",
+                           "bias_est_rad_s", "inclination_rad", "azimuth_rad", "gyro_counts", "accel_counts",
+                           "ref_yaw_rad", "ref_var_rad2", "estimate_frames")
+""":class:`NodeRun`'s (R, K, ...) records (None where a run has none)."""
 
 
 @dataclass(frozen=True)

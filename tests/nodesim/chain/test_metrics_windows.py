@@ -68,3 +68,77 @@ def test_the_longest_time_since_an_update_is_numpys_max_over_the_metric_ticks(se
     got = max_time_since_update_s(node, sel)
     assert np.array_equal(got, want, equal_nan=True) and np.isnan(got).all() == (keep_before_start and start_tick > 0)
     assert np.isnan(max_time_since_update_s(node, np.zeros(t.size, bool))).all()
+
+
+def test_trailing_sums_in_windows_are_the_moving_average_at_once():
+    """metrics._TrailingSums: a series given in windows (of one sample, shorter and longer than the average) gives
+    firmware_model's trailing_moving_average of the whole series, bit for bit."""
+    from firmware_model.survey_resolution import trailing_moving_average
+    from nodesim.chain.metrics import _TrailingSums
+
+    x = np.random.default_rng(4).normal(size=(3, 500)) * 1e3
+    for points in (1, 2, 7, 100):
+        want = trailing_moving_average(x, points)
+        sums = _TrailingSums(points, 3)
+        got = np.concatenate([sums.add(x[:, a:b]) for a, b in zip([0, 1, 2, 5, 60, 61, 300], [1, 2, 5, 60, 61, 300, 500])],
+                             axis=1)
+        assert np.array_equal(got, want), points
+
+
+@pytest.mark.parametrize("over", [
+    {"motion.kind": "drilling", "chain.nodes": 4, "simulation.duration_s": 520.0, "simulation.realizations": 3,
+     "metrics.window_start_s": 0.0, "metrics.window_end_s": 520.0, "motion.rate_of_penetration_m_s": 2.0 / 60.0,
+     "motion.survey_stop_s": 30.0, "motion.survey_settle_s": 15.0, "motion.insertion_s": 30.0,
+     "faults.node_failure": [{"node": 3, "at_s": 400.0}], "radio.model": "channel", "radio.shadowing_sigma_db": 0.0,
+     "radio.soil.distance_m": 2.0, "radio.soil.vwc": 0.275, "mac.enabled": True},
+    {"chain.nodes": 2, "simulation.duration_s": 300.0, "simulation.realizations": 2, "metrics.window_start_s": 120.0,
+     "metrics.window_end_s": 300.0, "metrics.output_moving_average_points": 25, "metrics.bias_hold_s": 5.0,
+     "schedule.mode": "windowed", "schedule.update_s": 20.0, "schedule.timeout_s": 60.0}])
+def test_node_metrics_from_windows_of_ticks_are_those_at_once(over):
+    """NodeMetricSums fed a node's records window by window (NodeRun.ticks, windows of 1 to 7 ticks) gives
+    node_metrics' values: bit for bit, except the RMS errors and the mean age, whose window sums are added
+    (equal to 1e-13 relative); drilling (survey stops as metric windows, a dead node) and lab motion with the
+    output moving average and timeouts."""
+    from nodesim.chain.metrics import NodeMetricSums, _hold_ticks, node_metrics
+    from nodesim.chain.network import simulate_chain
+    from nodesim.scenario.schema import Scenario
+
+    scenario = Scenario().with_overrides(**over)
+    run = simulate_chain(scenario)
+    rng = np.random.default_rng(1)
+    for node in run.nodes:
+        want = node_metrics(run.motion, node, scenario.metrics)
+        K = node.t_s.size
+        cuts = np.unique(np.concatenate([[0, 1, 2, K], rng.integers(0, K, size=12), np.arange(0, K, 7)]))
+        sums = NodeMetricSums(run.motion, scenario.metrics, node.yaw_est_rad.shape[0],
+                              _hold_ticks(node.t_s, scenario.metrics.bias_hold_s))
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            sums.add(node.ticks(int(a), int(b)))
+        got = sums.metrics()
+        assert set(got) == set(want)
+        for key in want:
+            if key.startswith("rms_") or key == "mean_update_age_s":
+                assert np.allclose(got[key], want[key], rtol=1e-13, atol=0, equal_nan=True), (node.node_id, key)
+            else:
+                assert np.array_equal(got[key], want[key], equal_nan=True), (node.node_id, key)
+        assert np.isfinite(want["rms_azimuth_error_deg"]).all()
+
+
+@pytest.mark.parametrize("seed, hold", [(1, 1), (2, 7), (3, 40), (4, 4000)])
+def test_the_bias_band_s_runs_carried_over_windows_find_the_same_first_run(seed, hold):
+    """metrics._hold_runs given a band test window by window (the run carried over each cut) finds the first run of
+    ``hold`` ticks that bias_convergence_time_s's definition finds at once."""
+    from nodesim.chain.metrics import _hold_runs
+
+    rng = np.random.default_rng(seed)
+    inside = rng.random((5, 3000)) > 0.08  # runs of ~12 ticks on average, some much longer
+    t = np.cumsum(rng.choice([0.25, 0.5], size=3000))
+    want = (np.zeros(5, np.int64), np.full(5, np.nan), np.full(5, np.nan))
+    _hold_runs(inside, t, hold, *want)
+    got = (np.zeros(5, np.int64), np.full(5, np.nan), np.full(5, np.nan))
+    for a in range(0, 3000, 5):
+        _hold_runs(inside[:, a:a + 5], t[a:a + 5], hold, *got)
+    for r in range(5):
+        first = next((i for i in range(3000 - hold + 1) if inside[r, i:i + hold].all()), None)
+        assert (np.isnan(want[2][r]) if first is None else want[2][r] == t[first]), r
+    assert np.array_equal(got[2], want[2], equal_nan=True) and np.isfinite(want[2]).sum() >= 5 * (hold < 100)
