@@ -308,23 +308,36 @@ def fixed_surveys(accel_counts, yaw_raw, samples, align_lo, align_hi, points, mo
     """``accel_counts`` (R, K, 3) int64 count sums of ``samples`` (K,) samples, ``yaw_raw`` (R, K) int64 yaw
     words, the alignment window ``align_lo <= k < align_hi`` (empty: no offset) -> the moving-averaged I and A
     binary angles (R, K) into ``inc_raw_out`` and ``azi_raw_out`` (:func:`survey_tick`); each realization starts
-    from :func:`ma_reset` at k = 0."""
+    from :func:`ma_reset` at k = 0 (:func:`fixed_surveys_window` over all ticks)."""
+    states = np.zeros((yaw_raw.shape[0], MA_RING + 4 * points), dtype=np.int64)  # ma_state_size(points)
+    fixed_surveys_window(accel_counts, yaw_raw, samples, 0, align_lo, align_hi, points, mode, iterations, states,
+                         inc_raw_out, azi_raw_out, yaw_frac_bits)
+
+
+@njit(cache=True, nogil=True)
+def fixed_surveys_window(accel_counts, yaw_raw, samples, k_base, align_lo, align_hi, points, mode, iterations, states,
+                         inc_raw_out, azi_raw_out, yaw_frac_bits=32):
+    """:func:`fixed_surveys` of a window of a node's ticks, the arrays' tick k being the node's tick k_base + k (the
+    alignment window is in the node's ticks), each realization's moving-average and alignment state ``states[r]``
+    carried from the window before (reset at k_base = 0): windows give the words of all ticks at once."""
     if points < 1:
         raise FirmwareError("survey: points must be >= 1")
     if mode == MODE_CORDIC and (iterations < cordic.MIN_ITERATIONS or iterations > cordic.MAX_ITERATIONS):
         raise FirmwareError("survey: cordic iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
     R, K = yaw_raw.shape
-    state = np.zeros(MA_RING + 4 * points, dtype=np.int64)  # ma_state_size(points)
     work = np.zeros((WORK_ROWS, BLOCK), dtype=np.int64)
     for r in range(R):
-        ma_reset(state)
+        state = states[r]
+        if k_base == 0:
+            ma_reset(state)
         for k0 in range(0, K, BLOCK):  # BLOCK ticks prepared in order, resolved at once (CORDIC lanes), then averaged
             n = min(BLOCK, K - k0)
             for j in range(n):
                 k = k0 + j
                 fx, fy, fz, psi = survey_prepare(state, points, accel_counts[r, k, 0], accel_counts[r, k, 1],
                                                  accel_counts[r, k, 2], samples[k],
-                                                 yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits), align_lo <= k < align_hi)
+                                                 yaw_to_ba32(yaw_raw[r, k], yaw_frac_bits),
+                                                 align_lo <= k_base + k < align_hi)
                 if mode == MODE_CORDIC:
                     work[W_FX, j], work[W_FY, j], work[W_FZ, j], work[W_YAW32, j] = fx, fy, fz, psi
                 else:

@@ -244,6 +244,17 @@ def sweep_streams(lib, ffi, n_streams, seed):
         survey.fixed_surveys(f[None], yaw[None], samples, lo, hi, points, mode, n, inc_b, azi_b, fb)
         np.testing.assert_array_equal(inc_b[0], inc_m)  # the batched loop runs the same ticks
         np.testing.assert_array_equal(azi_b[0], azi_m)
+        states = np.zeros((1, survey.ma_state_size(points)), np.int64)  # in windows (the state carried): the same
+        cut_rng = np.random.default_rng(K * 1000 + points)  # (the sweep's own draws unchanged)
+        cuts = [0, *sorted(set(int(c) for c in cut_rng.integers(1, K, 3))), K] if K > 1 else [0, K]
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            i_w, a_w = np.zeros((1, b - a), np.int64), np.zeros((1, b - a), np.int64)
+            survey.fixed_surveys_window(np.ascontiguousarray(f[None, a:b]), np.ascontiguousarray(yaw[None, a:b]),
+                                        np.ascontiguousarray(samples[a:b]), a, lo, hi, points, mode, n, states,
+                                        i_w, a_w, fb)
+            inc_b[:, a:b], azi_b[:, a:b] = i_w, a_w
+        np.testing.assert_array_equal(inc_b[0], inc_m)
+        np.testing.assert_array_equal(azi_b[0], azi_m)
     assert refused > 0 and aligned > n_streams // 10  # both branches exercised
 
 
