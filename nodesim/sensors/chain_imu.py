@@ -206,7 +206,7 @@ class NodeImuStream:
         self.z_gm = streams.sensor_states(R, node_index, "gyro")  # the Gauss-Markov drive, then the tick-sum normals
         self.z_g = None  # the tick-sum normals' states (found when the first window is not all ticks)
         self.z_a = streams.sensor_states(R, node_index, "accel")
-        self.z_samples = {name: streams.sensor_states(R, node_index, name) for name in ("gyro_samples", "accel_samples")}
+        self.streams, self.z_samples = streams, {}  # the per-sample streams' states, made when first drawn from
         self.gm_last = np.zeros((R, 3))  # the Gauss-Markov bias of the last tick read
         self.k_next = 0
         j0, j_end = _sample_span(t_s, dt_s, imu.sample_rate_hz)
@@ -286,11 +286,18 @@ class NodeImuStream:
             return readings()[1][idx] @ T[r].T
 
         g_clip = _per_sample(gyro, g_sel, gyro_mu, imu.gyro_sigma_lsb, g_lo, g_hi, starts, n,
-                             self.z_samples["gyro_samples"])
+                             lambda: self._sample_states("gyro_samples"))
         a_clip = _per_sample(accel, a_sel, accel_mu, imu.accel_sigma_lsb, a_lo, a_hi, starts, n,
-                             self.z_samples["accel_samples"])
+                             lambda: self._sample_states("accel_samples"))
         return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, self.tilt,
                           int(g_sel.sum() + a_sel.sum()))
+
+
+    def _sample_states(self, stream: str) -> np.ndarray:
+        """(R, 4): the PCG64 states of the per-sample stream ``stream`` where its next draw is (made at the first)."""
+        if stream not in self.z_samples:
+            self.z_samples[stream] = self.streams.sensor_states(self.R, self.node_index, stream)
+        return self.z_samples[stream]
 
 
 def _sample_span(t_s: np.ndarray, dt_s: float, rate_hz: float) -> tuple[int, int]:
@@ -430,13 +437,15 @@ def _two_streams_normals(g_hi, g_lo, g_inc_hi, g_inc_lo, a_hi, a_lo, a_inc_hi, a
 
 
 def _per_sample(out: np.ndarray, sel: np.ndarray, mu_of, sigma_lsb: float, lo: int, hi: int, starts: np.ndarray,
-                n: np.ndarray, states: np.ndarray) -> np.ndarray:
+                n: np.ndarray, states_of) -> np.ndarray:
     """Overwrite the selected ticks (sel (R, K)) of ``out`` (R, K, 3) with per-sample sums, their normals drawn from
-    each realization's stream (PCG64 ``states`` (R, 4), advanced by what it drew); clipped readings (R,)."""
+    each realization's stream (``states_of()``: PCG64 states (R, 4), advanced by what it drew; asked for only where a
+    tick is selected); clipped readings (R,)."""
     R = sel.shape[0]
     clipped = np.zeros(R, dtype=np.int64)
     if not sel.any():  # every tick drawn directly (tick_sum's common case): no pass over (R, K), no loop over R
         return clipped
+    states = states_of()
     need = 3 * (sel * n[None, :]).sum(axis=1)  # normals per realization
     r0 = 0
     while r0 < R:
