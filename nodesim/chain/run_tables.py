@@ -35,11 +35,12 @@ TIMESERIES_COLUMNS = ("node", "t_s", "running", "update", "update_age_s", "true_
                       "bias_est_deg_s", "inclination_deg", "azimuth_deg")
 
 
-def node_timeseries(node, r: int = 0, step: int = 1) -> dict[str, np.ndarray]:
-    """Realization ``r``'s per-tick records of one node (:class:`~nodesim.chain.records.NodeRun`), every
-    ``step``-th tick: its rows of the timeseries table (:mod:`nodesim.chain.timeseries_rows`: degrees, the yaw
-    error wrapped into (-180, 180], the yaw sigma NaN where a diverged filter's variance is negative)."""
-    part = timeseries_rows.rows(node, r, step)
+def node_timeseries(node, r: int = 0, step: int = 1, first_tick: int = 0) -> dict[str, np.ndarray]:
+    """Realization ``r``'s per-tick records of one node (:class:`~nodesim.chain.records.NodeRun`, or a window of them
+    from its tick ``first_tick``), every ``step``-th tick of the node's: its rows of the timeseries table
+    (:mod:`nodesim.chain.timeseries_rows`: degrees, the yaw error wrapped into (-180, 180], the yaw sigma NaN where
+    a diverged filter's variance is negative)."""
+    part = timeseries_rows.rows(node, r, step, first_tick)
     return {k: part[k] for k in TIMESERIES_COLUMNS}
 
 

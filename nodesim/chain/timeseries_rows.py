@@ -35,12 +35,12 @@ def wrap_pi(a: float) -> float:
 
 
 @njit(cache=True, _nrt=False, nogil=True)
-def fill_rows(node_id, step, t_s, running, update, age_s, true_yaw, true_inc, true_azi, yaw, var, true_bias, bias,
-              inc, azi, ints, floats) -> None:
+def fill_rows(node_id, start, step, t_s, running, update, age_s, true_yaw, true_inc, true_azi, yaw, var, true_bias,
+              bias, inc, azi, ints, floats) -> None:
     """``ints`` (3, n) and ``floats`` (12, n) = the :data:`INT_COLUMNS` and :data:`FLOAT_COLUMNS` of ticks
-    0, ``step``, 2 ``step``, ... (module docstring); every input is one realization's (K,) record."""
+    ``start``, ``start + step``, ... (module docstring); every input is one realization's (K,) record."""
     j = 0
-    for k in range(0, t_s.size, step):
+    for k in range(start, t_s.size, step):
         ints[0, j], ints[1, j], ints[2, j] = node_id, running[k], update[k]
         v = var[k]
         sigma = np.sqrt(v)  # NaN (the sqrt instruction's, as numpy's) for v < 0
@@ -56,13 +56,16 @@ def _f64(x) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float64)
 
 
-def rows(node, r: int = 0, step: int = 1) -> dict[str, np.ndarray]:
-    """Realization ``r``'s rows of one node (:class:`~nodesim.chain.records.NodeRun`), every ``step``-th tick, as
-    columns (int64 and float64 rows of two blocks)."""
+def rows(node, r: int = 0, step: int = 1, first_tick: int = 0) -> dict[str, np.ndarray]:
+    """Realization ``r``'s rows of one node (:class:`~nodesim.chain.records.NodeRun`), every ``step``-th tick of
+    the node's (tick 0, ``step``, ...), as columns (int64 and float64 rows of two blocks); ``first_tick``: the
+    node's tick the records begin at (a window of its ticks, :meth:`NodeRun.ticks`: the windows' rows are the
+    rows of all ticks at once, in order)."""
     K = node.t_s.size
-    n = -(-K // step)
+    start = -first_tick % step  # the window's first tick that is a multiple of step
+    n = len(range(start, K, step))
     ints, floats = np.empty((len(INT_COLUMNS), n), np.int64), np.empty((len(FLOAT_COLUMNS), n))
-    fill_rows(node.node_id, step, _f64(node.t_s), np.ascontiguousarray(node.running, dtype=np.int64),
+    fill_rows(node.node_id, start, step, _f64(node.t_s), np.ascontiguousarray(node.running, dtype=np.int64),
               np.ascontiguousarray(node.update_mask[r], dtype=np.int64), _f64(node.update_age_s[r]),
               _f64(node.true_yaw_rad), _f64(node.true_inclination_rad), _f64(node.true_azimuth_rad),
               _f64(node.yaw_est_rad[r]), _f64(node.yaw_var_rad2[r]), _f64(node.true_bias_rad_s[r]),

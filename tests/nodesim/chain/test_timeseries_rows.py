@@ -60,3 +60,21 @@ def test_the_rows_are_the_bits_of_the_numpy_expressions(K, R, r, step, seed):
     for key in TIMESERIES_COLUMNS:
         assert got[key].dtype == want[key].dtype, key
         assert np.array_equal(got[key].view(np.int64), np.ascontiguousarray(want[key]).view(np.int64)), key
+
+
+@pytest.mark.parametrize("step", [1, 3, 7, 40])
+def test_rows_of_windows_of_ticks_are_the_rows_at_once(step):
+    """A node's records cut in windows (first_tick: where each begins) give, window after window, the rows of all its
+    ticks at once: every step-th tick of the node's, whatever the windows' edges."""
+    node = _node(500, 2, 5)
+    want = node_timeseries(node, 1, step)
+    cuts = [0, 1, 2, 3, 10, 11, 100, 250, 251, 499, 500]
+    parts = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        window = SimpleNamespace(**{k: (v[a:b] if k in ("t_s", "running", "true_yaw_rad", "true_inclination_rad",
+                                                        "true_azimuth_rad") else v[:, a:b] if isinstance(v, np.ndarray)
+                                        else v) for k, v in vars(node).items()})
+        parts.append(node_timeseries(window, 1, step, first_tick=a))
+    for key in TIMESERIES_COLUMNS:
+        got = np.concatenate([p[key] for p in parts])
+        assert np.array_equal(got.view(np.int64), np.ascontiguousarray(want[key]).view(np.int64)), key
