@@ -45,24 +45,49 @@ def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, align_lo: int, alig
                      inc_out: np.ndarray, azi_out: np.ndarray) -> None:
     """``force`` (R, K, 3) sensor-frame specific force, ``yaw_rad`` (R, K) tick-end yaw, the alignment window
     ``align_lo <= k < align_hi`` (empty: no offset) -> moving-averaged inclination and azimuth (R, K) [rad] into
-    ``inc_out`` and ``azi_out`` (module docstring)."""
+    ``inc_out`` and ``azi_out`` (module docstring): :func:`averaged_surveys_window` over all ticks."""
+    R = yaw_rad.shape[0]
+    state = (np.zeros((R, SURVEY_FLOATS)), np.zeros((R, SURVEY_INTS), np.int64), np.empty((R, 2, points)),
+             np.empty((R, 3, points)))
+    averaged_surveys_window(force, yaw_rad, 0, align_lo, align_hi, points, *state, inc_out, azi_out)
+
+
+SURVEY_FLOATS = 10
+"""A realization's float survey state (:func:`averaged_surveys_window`): the running sums of I, cos A, sin A, the
+alignment's sums of f'_x and f'_y, the max and min of its averages of f'_x and of f'_y, the yaw of the tick
+before."""
+SURVEY_INTS = 3
+"""Its integers: the alignment average's count and ring head, and whether the alignment is full."""
+
+
+@njit(cache=True, nogil=True)
+def averaged_surveys_window(force, yaw_rad, k_base, align_lo, align_hi, points, floats, ints, ring, history, inc_out,
+                            azi_out) -> None:
+    """:func:`averaged_surveys` of a window of a node's ticks, the arrays' tick k being its tick k_base + k (the
+    alignment window in its ticks), each realization's state carried from the window before (``floats`` (R,
+    :data:`SURVEY_FLOATS`), ``ints`` (R, :data:`SURVEY_INTS`), the alignment's ring (R, 2, points), the last
+    ``points`` running sums (R, 3, points), slot k mod points; all reset at k_base = 0): windows give what all
+    ticks give at once, bit for bit (the same operations on the same values)."""
     R, K = yaw_rad.shape
-    two_pi = 2.0 * math.pi
-    sums = np.empty((3, K))  # running sums of I, cos A, sin A
-    ring = np.empty((2, points))  # the alignment's moving average of f'_x, f'_y
     for r in range(R):
-        s_i = s_c = s_s = 0.0
-        a_n, a_head, a_x, a_y, full = 0, 0, 0.0, 0.0, False
-        max_x = min_x = max_y = min_y = 0.0
+        st, it, ring_r, hist = floats[r], ints[r], ring[r], history[r]
+        if k_base == 0:
+            st[:] = 0.0
+            it[:] = 0
+        s_i, s_c, s_s, a_x, a_y = st[0], st[1], st[2], st[3], st[4]
+        a_n, a_head, full = it[0], it[1], it[2] != 0
+        max_x, min_x, max_y, min_y = st[5], st[6], st[7], st[8]
+        slot = k_base % points  # the history's slot of tick ka: the running sums of tick ka - points, then ka's
         for k in range(K):
+            ka = k_base + k
             fx, fy, fz = force[r, k, 0], force[r, k, 1], force[r, k, 2]
-            if align_lo <= k < align_hi:
+            if align_lo <= ka < align_hi:
                 if a_n == points:
-                    a_x -= ring[0, a_head]
-                    a_y -= ring[1, a_head]
+                    a_x -= ring_r[0, a_head]
+                    a_y -= ring_r[1, a_head]
                 else:
                     a_n += 1
-                ring[0, a_head], ring[1, a_head] = fx, fy
+                ring_r[0, a_head], ring_r[1, a_head] = fx, fy
                 a_x += fx
                 a_y += fy
                 a_head = (a_head + 1) % points
@@ -76,18 +101,24 @@ def averaged_surveys(force: np.ndarray, yaw_rad: np.ndarray, align_lo: int, alig
             elif full:
                 fx, fy = fx - 0.5 * (max_x + min_x), fy - 0.5 * (max_y + min_y)
             psi = yaw_rad[r, k]
-            if k > 0:
-                prev = yaw_rad[r, k - 1]
+            if ka > 0:
+                prev = yaw_rad[r, k - 1] if k > 0 else st[9]
                 psi = prev + 0.5 * (mod_two_pi(psi - prev + math.pi) - math.pi)
             h = math.sqrt(fx * fx + fy * fy)  # eq 1.2 as written (survey_resolution.resolve: not hypot)
             cos_a, sin_a = _unit_azimuth(fx, fy, h, psi)
             s_i += np.arctan2(h, fz)
             s_c += cos_a
             s_s += sin_a
-            sums[0, k], sums[1, k], sums[2, k] = s_i, s_c, s_s
             w_i, w_c, w_s = s_i, s_c, s_s
-            if k >= points:
-                w_i, w_c, w_s = s_i - sums[0, k - points], s_c - sums[1, k - points], s_s - sums[2, k - points]
-            n = min(k + 1, points)
+            if ka >= points:
+                w_i, w_c, w_s = s_i - hist[0, slot], s_c - hist[1, slot], s_s - hist[2, slot]
+            hist[0, slot], hist[1, slot], hist[2, slot] = s_i, s_c, s_s
+            slot = slot + 1 if slot + 1 < points else 0
+            n = min(ka + 1, points)
             inc_out[r, k] = w_i / n
             azi_out[r, k] = mod_two_pi(np.arctan2(w_s / n, w_c / n))
+        st[0], st[1], st[2], st[3], st[4] = s_i, s_c, s_s, a_x, a_y
+        st[5], st[6], st[7], st[8] = max_x, min_x, max_y, min_y
+        if K > 0:
+            st[9] = yaw_rad[r, K - 1]
+        it[0], it[1], it[2] = a_n, a_head, 1 if full else 0

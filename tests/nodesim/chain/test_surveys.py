@@ -104,3 +104,30 @@ _MOD_TWO_PI = njit(lambda v: mod_two_pi(v))
 def test_mod_two_pi_is_numpys_remainder_bit_for_bit(x):
     got = _MOD_TWO_PI(x)
     assert np.float64(got).tobytes() == np.float64(np.remainder(x, 2 * np.pi)).tobytes()
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5, 6])
+def test_surveys_in_windows_of_ticks_equal_all_ticks_at_once(seed):
+    """averaged_surveys_window with the state carried (running sums, the last N sums, the alignment's average,
+    extremes and ring, the yaw of the tick before) over windows of 1 tick to hundreds, the alignment window and
+    the average crossing their edges: the words of one pass over all ticks, bit for bit."""
+    from nodesim.chain.compiled import surveys
+
+    rng = np.random.default_rng(seed)
+    R, K, points = 3, int(rng.integers(200, 1500)), int(rng.choice([1, 2, 5, 32]))
+    f = rng.normal(scale=0.3, size=(R, K, 3)) + np.array([0.1, -0.2, 9.8])
+    yaw = np.cumsum(rng.normal(size=(R, K)), axis=1)
+    lo, hi = sorted(int(v) for v in rng.integers(0, K, 2))
+    want = np.empty((R, K)), np.empty((R, K))
+    averaged_surveys(f, yaw, lo, hi, points, *want)
+    state = (np.zeros((R, surveys.SURVEY_FLOATS)), np.zeros((R, surveys.SURVEY_INTS), np.int64),
+             np.empty((R, 2, points)), np.empty((R, 3, points)))
+    cuts = np.unique(np.concatenate([[0, 1, 2, K], rng.integers(0, K, 10), [lo, lo + 1, hi, hi + 1]]))
+    cuts = cuts[cuts <= K]
+    got = np.empty((R, K)), np.empty((R, K))
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        out = np.empty((R, b - a)), np.empty((R, b - a))
+        surveys.averaged_surveys_window(np.ascontiguousarray(f[:, a:b]), np.ascontiguousarray(yaw[:, a:b]), a, lo, hi,
+                                        points, *state, *out)
+        got[0][:, a:b], got[1][:, a:b] = out
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
