@@ -47,17 +47,49 @@ def resolve_survey(specific_force_sensor: np.ndarray, yaw_rad: np.ndarray) -> tu
 
 def trailing_moving_average(x: np.ndarray, points: int, axis: int = -1) -> np.ndarray:
     """N-point trailing moving average along ``axis`` (the firmware MAF; the first N-1 outputs average what
-    has arrived so far, as a ring buffer that is filling up does)."""
+    has arrived so far, as a ring buffer that is filling up does): :class:`TrailingAverage` of the whole series."""
     x = np.moveaxis(np.asarray(x, float), axis, -1)
-    csum = np.cumsum(x, axis=-1)
-    out = csum.copy()
-    out[..., points:] = csum[..., points:] - csum[..., :-points]
-    counts = np.minimum(np.arange(1, x.shape[-1] + 1), points)
-    return np.moveaxis(out / counts, -1, axis)
+    return np.moveaxis(TrailingAverage(points).add(x), -1, axis)
 
 
 def circular_moving_average(angle_rad: np.ndarray, points: int, axis: int = -1) -> np.ndarray:
     """Moving average of an angle through its unit vector, so 359 deg and 1 deg average to 0 deg."""
-    c = trailing_moving_average(np.cos(angle_rad), points, axis)
-    s = trailing_moving_average(np.sin(angle_rad), points, axis)
-    return np.remainder(np.arctan2(s, c), 2.0 * math.pi)
+    return np.moveaxis(CircularAverage(points).add(np.moveaxis(np.asarray(angle_rad, float), axis, -1)), -1, axis)
+
+
+class TrailingAverage:
+    """The N-point trailing moving average of a series given in consecutive pieces along the last axis (..., n):
+    out_k = (S_k - S_(k-N)) / min(k + 1, N) with S the prefix sums (S_k alone for k < N), numpy's cumsum adding in
+    order, the last prefix sum of the piece before carried in (and its last N kept): pieces give the bits of the
+    whole series at once."""
+
+    def __init__(self, points: int):
+        self.points, self.seen = points, 0
+        self.tail = None  # (..., min(seen, points)): the last prefix sums
+
+    def add(self, x: np.ndarray) -> np.ndarray:
+        n, p = x.shape[-1], self.points
+        tail = np.zeros(x.shape[:-1] + (0,)) if self.tail is None else self.tail
+        m = tail.shape[-1]
+        csum = np.cumsum(np.concatenate([tail[..., -1:], x], axis=-1), axis=-1)[..., 1:] if m else np.cumsum(x, axis=-1)
+        k = self.seen + np.arange(n)  # the series' indices of this piece
+        known = np.concatenate([tail, csum], axis=-1)  # the prefix sums from index seen - m on
+        out = csum.copy()
+        late = k >= p
+        out[..., late] = csum[..., late] - known[..., k[late] - p - (self.seen - m)]
+        out /= np.minimum(k + 1, p)
+        self.tail, self.seen = known[..., -p:], self.seen + n
+        return out
+
+
+class CircularAverage:
+    """:func:`circular_moving_average` of an angle series given in consecutive pieces (:class:`TrailingAverage` of
+    its cosine and sine)."""
+
+    def __init__(self, points: int):
+        self.cos, self.sin = TrailingAverage(points), TrailingAverage(points)
+
+    def add(self, angle_rad: np.ndarray) -> np.ndarray:
+        c = self.cos.add(np.cos(angle_rad))
+        s = self.sin.add(np.sin(angle_rad))
+        return np.remainder(np.arctan2(s, c), 2.0 * math.pi)

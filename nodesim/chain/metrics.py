@@ -37,6 +37,7 @@ import warnings
 import numpy as np
 from numba import njit
 
+from firmware_model.survey_resolution import CircularAverage, TrailingAverage
 from nodesim.chain.linkmetrics import link_metrics
 from nodesim.chain.records import ChainRun, NodeRun
 from nodesim.motion.timelines import ChainMotion
@@ -73,13 +74,22 @@ def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: floa
     """Per realization: first time after ``after_s`` from which |b_hat - b| <= tol for ``hold_s`` (h =
     ceil(hold_s / dt) ticks in a row, dt the node's first tick step: the start of the first run of h running ticks
     after ``after_s`` inside the band, :func:`_hold_runs`); NaN if none."""
-    t = node.t_s
-    idx_after = np.flatnonzero((t >= after_s) & node.running)
-    R = node.bias_est_rad_s.shape[0]
-    run = (np.zeros(R, np.int64), np.full(R, np.nan), np.full(R, np.nan))  # run length, its first tick, found
-    _hold_runs(np.abs(node.bias_est_rad_s[:, idx_after] - node.true_bias_rad_s[:, idx_after]) <= tolerance_rad_s,
-               t[idx_after], _hold_ticks(t, hold_s), *run)
-    return run[2] - after_s
+    band = _new_band(node.bias_est_rad_s.shape[0])
+    _band_runs(node, after_s, tolerance_rad_s, _hold_ticks(node.t_s, hold_s), band)
+    return band[2] - after_s
+
+
+def _new_band(R: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_hold_runs`' carry before any tick: (run length, its first tick's time, the time found: NaN)."""
+    return np.zeros(R, np.int64), np.full(R, np.nan), np.full(R, np.nan)
+
+
+def _band_runs(node: NodeRun, after_s: float, tolerance_rad_s: float, hold_ticks: int, band: tuple) -> None:
+    """:func:`_hold_runs` over the node's running ticks at or after ``after_s`` (only those: a drilling day's last
+    rotation ends late), inside the band |b_hat - b| <= tol, carrying ``band``."""
+    after = np.flatnonzero((node.t_s >= after_s) & node.running)
+    inside = np.abs(node.bias_est_rad_s[:, after] - node.true_bias_rad_s[:, after]) <= tolerance_rad_s
+    _hold_runs(inside, node.t_s[after], hold_ticks, *band)
 
 
 def _hold_ticks(t_s: np.ndarray, hold_s: float) -> int:
@@ -111,39 +121,17 @@ def _hold_runs(inside, t, hold, length, start, found) -> None:
         length[r], start[r] = n, t0
 
 
-class _TrailingSums:
-    """:func:`~firmware_model.survey_resolution.trailing_moving_average` of a series given window by window (R, n)
-    along its last axis: the same prefix sums (numpy's cumsum adds in order; the last one is carried in), the same
-    differences and divisions, so the same bits as over the whole series at once."""
-
-    def __init__(self, points: int, R: int):
-        self.points, self.seen = points, 0
-        self.tail = np.zeros((R, 0))  # the last min(seen, points) prefix sums
-
-    def add(self, x: np.ndarray) -> np.ndarray:
-        n, m, p = x.shape[1], self.tail.shape[1], self.points
-        csum = np.cumsum(np.concatenate([self.tail[:, -1:], x], axis=1), axis=1)[:, 1:] if m else np.cumsum(x, axis=1)
-        k = self.seen + np.arange(n)  # the series' indices of this window
-        out = csum.copy()
-        late = k >= p
-        out[:, late] = csum[:, late] - np.concatenate([self.tail, csum], axis=1)[:, k[late] - p - (self.seen - m)]
-        out /= np.minimum(k + 1, p)
-        self.tail = np.concatenate([self.tail, csum], axis=1)[:, -p:]
-        self.seen += n
-        return out
-
-
 class _OutputAverage:
-    """:func:`output_average` window by window: from the node's first finite sample on, ``points``-point trailing
-    averages of the inclination and of the azimuth's unit vector (:func:`_TrailingSums`)."""
+    """:func:`output_average` window by window: from the node's first finite sample on, the ``points``-point
+    trailing average of the inclination and the circular one of the azimuth
+    (:class:`~firmware_model.survey_resolution.TrailingAverage`, :class:`~firmware_model.survey_resolution.CircularAverage`)."""
 
-    def __init__(self, points: int, R: int):
-        self.points = points
-        self.sums = [_TrailingSums(points, R) for _ in range(3)] if points > 1 else None
+    def __init__(self, points: int):
+        self.averages = (TrailingAverage(points), CircularAverage(points)) if points > 1 else None
         self.started = False
 
     def add(self, inclination_rad: np.ndarray, azimuth_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.sums is None:
+        if self.averages is None:
             return inclination_rad, azimuth_rad
         inc, azi = inclination_rad.copy(), azimuth_rad.copy()
         a = 0
@@ -152,16 +140,15 @@ class _OutputAverage:
             if not finite.size:
                 return inc, azi
             a, self.started = int(finite[0]), True
-        inc_s, cos_s, sin_s = self.sums
-        inc[:, a:] = inc_s.add(inc[:, a:])
-        azi[:, a:] = np.remainder(np.arctan2(sin_s.add(np.sin(azi[:, a:])), cos_s.add(np.cos(azi[:, a:]))), 2.0 * math.pi)
+        inc[:, a:] = self.averages[0].add(inc[:, a:])
+        azi[:, a:] = self.averages[1].add(azi[:, a:])
         return inc, azi
 
 
 def output_average(node: NodeRun, points: int) -> tuple[np.ndarray, np.ndarray]:
     """Reported (inclination, azimuth) after a further ``points``-point moving average from the node's first
     finite sample (``points`` = 1: unchanged)."""
-    return _OutputAverage(points, node.inclination_rad.shape[0]).add(node.inclination_rad, node.azimuth_rad)
+    return _OutputAverage(points).add(node.inclination_rad, node.azimuth_rad)
 
 
 def reference_attitude(true_inclination_rad: np.ndarray, true_azimuth_rad: np.ndarray,
@@ -194,7 +181,7 @@ class NodeMetricSums:
     (:meth:`add`: consecutive :class:`NodeRun` pieces, :meth:`NodeRun.ticks`), so that a run need not hold them
     whole.  Per realization: the sums of the squared azimuth, inclination and yaw errors over the metric ticks and
     their count, the timeout envelope (a max), the updates and the sum and count of their ages, the output average's
-    prefix sums (:class:`_OutputAverage`), the bias band's run (:func:`_hold_runs`) and the last update and longest
+    running averages (:class:`_OutputAverage`), the bias band's run (:func:`_hold_runs`) and the last update and longest
     time since one (:func:`_max_time_since_update`).  All ticks in one window: the values of the whole-run
     definitions, bit for bit; in several windows the same, except the RMS errors and the mean age, whose window
     sums are added (numpy sums each window pairwise): equal to rounding (~1e-15 relative; tested)."""
@@ -206,13 +193,13 @@ class NodeMetricSums:
         self.envelope = np.full(R, -np.inf)
         self.updates = np.zeros(R)
         self.age_sum, self.age_count = np.zeros(R), np.zeros(R, np.int64)
-        self.average = _OutputAverage(window.output_moving_average_points, R)
-        self.band = (np.zeros(R, np.int64), np.full(R, np.nan), np.full(R, np.nan))  # :func:`_hold_runs`' carry
+        self.average = _OutputAverage(window.output_moving_average_points)
+        self.band = _new_band(R)
         self.since = (np.full(R, -np.inf), np.full(R, -np.inf), np.zeros(R, np.bool_))  # last update, max, NaN seen
 
     def add(self, node: NodeRun) -> None:
         """The records of the node's next ticks."""
-        w, motion = self.window, self.motion
+        motion = self.motion
         sel = metric_ticks(node, motion.metric_windows)
         idx = np.flatnonzero(sel)  # the same elements in the same order as the mask, found once: a drilling day's
         # node selects ~5 % of its ~160 k ticks, and each boolean index over (R, K) counted and found them again
@@ -233,10 +220,8 @@ class NodeMetricSums:
             self.ticks += idx.size
         _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
                                sel, float(node.filter_start_s), *self.since)  # (updates move it on in any window)
-        after = np.flatnonzero((node.t_s >= motion.rotation_end_s) & node.running)
-        inside = np.abs(node.bias_est_rad_s[:, after] - node.true_bias_rad_s[:, after]) <= math.radians(
-            w.bias_tolerance_deg_s)
-        _hold_runs(inside, node.t_s[after], self.hold_ticks, *self.band)
+        _band_runs(node, motion.rotation_end_s, math.radians(self.window.bias_tolerance_deg_s), self.hold_ticks,
+                   self.band)
 
     def metrics(self) -> dict[str, np.ndarray]:
         """The node's metrics (:func:`node_metrics`) from the ticks added."""
@@ -264,9 +249,9 @@ def max_time_since_update_s(node: NodeRun, sel: np.ndarray) -> np.ndarray:
     the start (or ``sel`` is empty).  One compiled pass (:func:`_max_time_since_update`) instead of four (R, K)
     arrays: the same values (a max of the same differences)."""
     R = node.update_mask.shape[0]
-    since = (np.full(R, -np.inf), np.full(R, -np.inf), np.zeros(R, np.bool_))
     if not sel.any():
         return np.full(R, np.nan)
+    since = (np.full(R, -np.inf), np.full(R, -np.inf), np.zeros(R, np.bool_))
     _max_time_since_update(np.ascontiguousarray(node.t_s, dtype=float), np.ascontiguousarray(node.update_mask),
                            np.ascontiguousarray(sel), float(node.filter_start_s), *since)
     return np.where(since[2], np.nan, since[1])

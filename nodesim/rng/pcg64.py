@@ -117,12 +117,9 @@ def seeded(words: np.ndarray) -> np.ndarray:
 
 @njit(cache=True, nogil=True)
 def fill_normals(states: np.ndarray, out: np.ndarray) -> None:
-    """Row i of ``out`` (M, n) = the next n ``standard_normal()`` draws of stream i (advanced in place)."""
-    for i in range(out.shape[0]):
-        hi, lo, inc_hi, inc_lo = states[i, 0], states[i, 1], states[i, 2], states[i, 3]
-        for j in range(out.shape[1]):
-            out[i, j], hi, lo = normal(hi, lo, inc_hi, inc_lo)
-        states[i, 0], states[i, 1] = hi, lo
+    """Row i of ``out`` (M, n) = the next n ``standard_normal()`` draws of stream i (advanced in place):
+    :func:`fill_normals_rows` with n for every row."""
+    fill_normals_rows(states, np.full(out.shape[0], out.shape[1], np.int64), out)
 
 
 @njit(cache=True, nogil=True)

@@ -70,19 +70,25 @@ def test_the_longest_time_since_an_update_is_numpys_max_over_the_metric_ticks(se
     assert np.isnan(max_time_since_update_s(node, np.zeros(t.size, bool))).all()
 
 
-def test_trailing_sums_in_windows_are_the_moving_average_at_once():
-    """metrics._TrailingSums: a series given in windows (of one sample, shorter and longer than the average) gives
-    firmware_model's trailing_moving_average of the whole series, bit for bit."""
-    from firmware_model.survey_resolution import trailing_moving_average
-    from nodesim.chain.metrics import _TrailingSums
+def test_trailing_averages_in_pieces_are_the_moving_average_at_once():
+    """firmware_model.survey_resolution.TrailingAverage: a series given in pieces (of one sample, shorter and longer
+    than the average) gives the N-point trailing average's definition (prefix sums by numpy's cumsum, their
+    differences, divided by min(k + 1, N)) of the whole series, bit for bit; CircularAverage in pieces gives
+    circular_moving_average at once."""
+    from firmware_model.survey_resolution import CircularAverage, TrailingAverage, circular_moving_average
 
     x = np.random.default_rng(4).normal(size=(3, 500)) * 1e3
+    edges = [0, 1, 2, 5, 60, 61, 300, 500]
     for points in (1, 2, 7, 100):
-        want = trailing_moving_average(x, points)
-        sums = _TrailingSums(points, 3)
-        got = np.concatenate([sums.add(x[:, a:b]) for a, b in zip([0, 1, 2, 5, 60, 61, 300], [1, 2, 5, 60, 61, 300, 500])],
-                             axis=1)
+        csum = np.cumsum(x, axis=1)
+        want = csum.copy()
+        want[:, points:] = csum[:, points:] - csum[:, :-points]
+        want = want / np.minimum(np.arange(1, 501), points)
+        average, circular = TrailingAverage(points), CircularAverage(points)
+        got = np.concatenate([average.add(x[:, a:b]) for a, b in zip(edges[:-1], edges[1:])], axis=1)
         assert np.array_equal(got, want), points
+        got = np.concatenate([circular.add(x[:, a:b]) for a, b in zip(edges[:-1], edges[1:])], axis=1)
+        assert np.array_equal(got, circular_moving_average(x, points)), points
 
 
 @pytest.mark.parametrize("over", [
