@@ -75,7 +75,7 @@ def bias_convergence_time_s(node: NodeRun, after_s: float, tolerance_rad_s: floa
     ceil(hold_s / dt) ticks in a row, dt the node's first tick step: the start of the first run of h running ticks
     after ``after_s`` inside the band, :func:`_hold_runs`); NaN if none."""
     band = _new_band(node.bias_est_rad_s.shape[0])
-    _band_runs(node, after_s, tolerance_rad_s, _hold_ticks(node.t_s, hold_s), band)
+    _band_runs(node, after_s, tolerance_rad_s, bias_hold_ticks(node.t_s, hold_s), band)
     return band[2] - after_s
 
 
@@ -92,7 +92,7 @@ def _band_runs(node: NodeRun, after_s: float, tolerance_rad_s: float, hold_ticks
     _hold_runs(inside, node.t_s[after], hold_ticks, *band)
 
 
-def _hold_ticks(t_s: np.ndarray, hold_s: float) -> int:
+def bias_hold_ticks(t_s: np.ndarray, hold_s: float) -> int:
     """ceil(hold_s / dt) (at least 1), dt = t_1 - t_0 (1 s for a node of one tick)."""
     dt = t_s[1] - t_s[0] if t_s.size > 1 else 1.0
     return max(int(math.ceil(hold_s / dt)), 1)
@@ -171,7 +171,7 @@ def reference_attitude(true_inclination_rad: np.ndarray, true_azimuth_rad: np.nd
 def node_metrics(motion: ChainMotion, node: NodeRun, window: MetricsSection) -> dict[str, np.ndarray]:
     """Metric arrays of shape (R,) for one node, in edge units (deg, s) (``motion``: the run's metric windows and
     the end of its last rotation): :class:`NodeMetricSums` of all its ticks at once."""
-    sums = NodeMetricSums(motion, window, node.yaw_est_rad.shape[0], _hold_ticks(node.t_s, window.bias_hold_s))
+    sums = NodeMetricSums(motion, window, node.yaw_est_rad.shape[0], bias_hold_ticks(node.t_s, window.bias_hold_s))
     sums.add(node)
     return sums.metrics()
 

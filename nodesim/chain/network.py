@@ -84,7 +84,7 @@ def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float
 class Network:
     """The SimPy world of one run (built by :func:`simulate_chain`)."""
 
-    def __init__(self, scenario: Scenario, attach_signals: bool = True, spill: bool = False):
+    def __init__(self, scenario: Scenario, attach_signals: bool = True, spill: bool = False, whole_truth: bool = True):
         self.scenario = scenario
         self.env = simpy.Environment()
         self.events = 0
@@ -99,7 +99,8 @@ class Network:
         self.forward_every_tick = c.forward == "every_tick"
         self.motion = build_motion(scenario)
         self._truth = None
-        if spill:  # a streamed compiled run: the sensors' shared truth on another core from here on (build_shared_truth)
+        if spill and whole_truth:  # a streamed compiled run node by node: the sensors' shared truth on another core
+            # from here on (build_shared_truth); a run in windows of time builds a truth per window
             from concurrent.futures import ThreadPoolExecutor
 
             pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-truth")
@@ -354,21 +355,25 @@ class Network:
             self.nodes[n].release()
         return self.result(runs=(), surveys=surveys, summaries=tuple(summaries))
 
-    def survey_frame(self, i: int, run: NodeRun) -> GroundSurvey:
+    def survey_frame(self, i: int, run: NodeRun, k_base: int = 0, survey_raw: tuple | None = None) -> GroundSurvey:
         """Survey ``i`` (of :attr:`ground`, in send order) as the ground station got it: the fixed firmware's as a
         25-byte survey frame (:func:`nodesim.chain.packets.survey_frame`) from the surveying node's I and A words at
         the survey tick, relayed hop by hop (each hop's undetected bit errors, :meth:`nodesim.chain.mac.Link.received`,
         stay in the bytes); the float filter's as sent.  Made from the surveying node's records (``run``, its
-        :class:`NodeRun`): the moving-averaged survey words are resolved from them."""
+        :class:`NodeRun`): the moving-averaged survey words are resolved from them.  A window of the node's ticks
+        (:mod:`nodesim.chain.compiled.time_windows`): ``run`` from its tick ``k_base`` on, ``survey_raw`` its (first
+        tick of the words, I words, A words)."""
         g, hops = self.ground[i], self._survey_hops[i]
         p = g.packet
         node = self.nodes[p.node_id - 1]
-        if getattr(node, "survey_raw", None) is None:
+        survey_raw = getattr(node, "survey_raw", None) if survey_raw is None else survey_raw
+        if survey_raw is None:
             return g
-        first, inc_raw, azi_raw = node.survey_raw
-        k = p.tick - first
+        first, inc_raw, azi_raw = survey_raw
+        tick = p.tick - k_base
+        k = tick - first
         sig_i, sig_a = survey_sigmas_rad(run.accel_sigma_m_s2, self.scenario.filter.moving_average_points,
-                                         run.true_inclination_rad[p.tick], run.yaw_var_rad2[:, p.tick])
+                                         run.true_inclination_rad[tick], run.yaw_var_rad2[:, tick])
         frame = survey_frame(p.station, p.node_id, int(timer_us(p.t_s)), inc_raw[:, k], azi_raw[:, k], sig_i, sig_a)
         for link, tr in hops:
             frame = link.received(frame, tr)
@@ -512,6 +517,7 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     they are complete, what it returns becomes the node's summary and the ChainRun keeps no per-tick records."""
     from nodesim.chain.allocator import keep_freed_memory, limit_arenas
     from nodesim.chain.compiled.engine import choose_engine, simulate_compiled
+    from nodesim.chain.compiled.time_windows import windowed
 
     require_engine_filter(scenario)  # filter.states = 6: its tuning checked before any work (issue 24)
     if scenario.simulation.realizations > 1:
@@ -519,7 +525,8 @@ def simulate_chain(scenario: Scenario, progress: Callable[[float], None] | None 
     if on_node is not None:
         limit_arenas()  # the nodes' arrays are freed where they are reused: memory flatter in the duration
     if choose_engine(scenario) == "compiled":
-        held = [Network(scenario, attach_signals=False, spill=on_node is not None)]
+        held = [Network(scenario, attach_signals=False, spill=on_node is not None,
+                        whole_truth=not windowed(scenario, on_node))]
         try:
             return simulate_compiled(held[0], progress, on_node)
         finally:

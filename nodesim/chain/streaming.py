@@ -28,9 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from nodesim import threads
-from nodesim.chain.metrics import node_metrics
+from nodesim.chain.metrics import NodeMetricSums, bias_hold_ticks, node_metrics
 from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
-from nodesim.chain.run_tables import TIMESERIES_COLUMNS, empty_timeseries, node_timeseries, node_survey_rows
+from nodesim.chain.run_tables import (SURVEY_COLUMNS, TIMESERIES_COLUMNS, empty_timeseries, node_survey_rows,
+                                      node_timeseries)
 from nodesim.chain.yaw_plot import YawPlotData, import_matplotlib
 from nodesim.io.rundir import csv_text, file_mode
 from nodesim.io.write_behind import WriteBehind
@@ -82,7 +83,7 @@ def timeseries_table(columns: dict[str, np.ndarray]):
 
 
 class TimeseriesFile:
-    """The timeseries table written block by block to ``path`` (``fmt`` "parquet": a row group per block,
+    """The timeseries table written block by block to ``path`` (``fmt`` "parquet": row groups of whole blocks, :attr:`ROW_GROUP_ROWS` rows or more,
     :data:`PARQUET_OPTIONS`; "csv": :func:`nodesim.io.rundir.csv_text`, as ``write_csv`` writes it), through a
     temporary file in the same directory that :meth:`close` renames into place (:meth:`abort` deletes it: a failed
     run leaves no partial table).  Parquet blocks are encoded on a writer thread (pyarrow releases the GIL) while
@@ -91,6 +92,9 @@ class TimeseriesFile:
     they are on disk (:mod:`nodesim.io.write_behind`): nothing reads them back during the run."""
 
     QUEUED_BLOCKS = 4
+    ROW_GROUP_ROWS = 1 << 16
+    """Blocks are gathered into row groups of at least this many rows: a run in windows of time
+    (:mod:`nodesim.chain.compiled.time_windows`) gives a block per node and window, ~6,800 rows for an hour."""
 
     def __init__(self, path: Path, fmt: str):
         self.path, self.fmt = Path(path), fmt
@@ -105,6 +109,8 @@ class TimeseriesFile:
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
         self.rows = 0
+        self._blocks: list[dict] = []  # blocks not yet in a row group, and their rows
+        self._buffered = 0
         if fmt == "parquet" and threads.thread_count() > 1:
             self._queue = queue.Queue(maxsize=self.QUEUED_BLOCKS)
             self._thread = threading.Thread(target=self._drain, name="nodesim-timeseries", daemon=True)
@@ -114,11 +120,10 @@ class TimeseriesFile:
         """Append one block of rows (the columns of :data:`~nodesim.chain.run_tables.TIMESERIES_COLUMNS`)."""
         self._raise()
         if self.fmt == "parquet":
-            block = {k: np.asarray(columns[k]) for k in TIMESERIES_COLUMNS}
-            if self._queue is not None:
-                self._queue.put(block)
-            else:
-                self._write_parquet(block)
+            self._blocks.append({k: np.asarray(columns[k]) for k in TIMESERIES_COLUMNS})
+            self._buffered += len(columns["node"])
+            if self._buffered >= self.ROW_GROUP_ROWS:
+                self._flush()
         else:
             header = self._csv is None
             if header:
@@ -126,6 +131,18 @@ class TimeseriesFile:
             self._csv.write(csv_text({k: columns[k] for k in TIMESERIES_COLUMNS}, header=header))
             self._behind.advance()
         self.rows += len(columns["node"])
+
+    def _flush(self) -> None:
+        """The blocks written since the last row group as one (on the writer thread where there is one)."""
+        if not self._blocks:
+            return
+        blocks, self._blocks, self._buffered = self._blocks, [], 0
+        block = blocks[0] if len(blocks) == 1 else {k: np.concatenate([b[k] for b in blocks])
+                                                      for k in TIMESERIES_COLUMNS}
+        if self._queue is not None:
+            self._queue.put(block)
+        else:
+            self._write_parquet(block)
 
     def _write_parquet(self, block: dict[str, np.ndarray]) -> None:
         import pyarrow.parquet as pq
@@ -160,6 +177,7 @@ class TimeseriesFile:
     def close(self) -> Path:
         """Finish the file and rename it into place (a table without rows when no block was written)."""
         if self.fmt == "parquet":
+            self._flush()
             self._join()
             self._raise()
             if self._writer is None:
@@ -198,6 +216,11 @@ class NodeStream:
         n, output = scenario.chain.nodes, scenario.output
         self.plot = YawPlotData([i for i in range(1, n + 1) if output.keeps_node(i, n)], scenario.simulation.duration_s)
 
+    def node_windows(self, node_id: int, t_s: np.ndarray, realizations: int) -> "NodeWindows":
+        """Node ``node_id``'s outputs fed window by window of its ticks ``t_s`` (a run in windows of time,
+        :mod:`nodesim.chain.compiled.time_windows`)."""
+        return NodeWindows(self, node_id, t_s, realizations)
+
     def __call__(self, run: NodeRun, surveys: list[GroundSurvey]) -> NodeSummary:
         s = self.scenario
         if s.output.keeps_node(run.node_id, s.chain.nodes):
@@ -216,3 +239,40 @@ class NodeStream:
             adc_clipped_samples=run.adc_clipped_samples,
             singular_ticks=run.singular_ticks,
         )
+
+
+class NodeWindows:
+    """One node's outputs (:class:`NodeStream`) fed window by window of its ticks (:meth:`add`, in order): its rows
+    of the timeseries table and of the yaw figure as they come, its metrics' sums
+    (:class:`nodesim.chain.metrics.NodeMetricSums`) and survey rows until :meth:`finish` makes its summary."""
+
+    def __init__(self, stream: NodeStream, node_id: int, t_s: np.ndarray, realizations: int):
+        s = stream.scenario
+        self.stream, self.node_id = stream, node_id
+        self.keeps = s.output.keeps_node(node_id, s.chain.nodes)
+        self.rows = len(range(0, t_s.size, s.output.tick_step))  # its rows of the table (the yaw figure's trace)
+        self.sums = NodeMetricSums(stream.motion, s.metrics, realizations, bias_hold_ticks(t_s, s.metrics.bias_hold_s))
+        self.survey_parts: list[dict] = []
+
+    def add(self, run: NodeRun, first_tick: int, surveys: list[GroundSurvey]) -> None:
+        """The records of the node's ticks from ``first_tick`` on (``run``), and the surveys it sent at them (their
+        packets' ticks counted from ``first_tick``)."""
+        s = self.stream.scenario
+        if self.keeps:
+            rows = node_timeseries(run, 0, s.output.tick_step, first_tick)
+            if self.stream.table is not None:
+                self.stream.table.write(rows)
+            import_matplotlib()
+            self.stream.plot.add(rows, self.rows)
+        self.sums.add(run)
+        if surveys:
+            self.survey_parts.append(node_survey_rows(run, surveys, s.filter.moving_average_points))
+
+    def finish(self, stale, duplicate, overflows: dict, clipped: np.ndarray, singular) -> NodeSummary:
+        """The node's summary after its last window (what :meth:`NodeStream.__call__` returns for all its ticks)."""
+        parts = self.survey_parts
+        rows = ({k: np.concatenate([p[k] for p in parts]) for k in SURVEY_COLUMNS} if parts else
+                node_survey_rows(None, [], 0))
+        return NodeSummary(node_id=self.node_id, metrics=self.sums.metrics(), survey_rows=rows, stale_packets=stale,
+                           duplicate_packets=duplicate, firmware_overflows=overflows, adc_clipped_samples=clipped,
+                           singular_ticks=singular)

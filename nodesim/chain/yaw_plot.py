@@ -40,13 +40,42 @@ class NodeTrace:
 def node_trace(rows: Mapping[str, np.ndarray], max_points: int = TRACE_POINTS) -> NodeTrace:
     """The trace of one node's timeseries ``rows`` (module docstring): all of them up to ``max_points``, else per bin
     of b = ceil(2 K / max_points) ticks the ticks of the bin's smallest and largest yaw error, in time order."""
-    show = np.asarray(rows["running"]).astype(bool)
-    t = np.where(show, np.asarray(rows["t_s"], dtype=float), np.nan)
-    err = np.asarray(rows["yaw_error_deg"], dtype=float)
-    est, true = np.asarray(rows["bias_est_deg_s"], dtype=float), np.asarray(rows["bias_true_deg_s"], dtype=float)
-    K = t.size
-    if K > max_points:
-        b = -(-2 * K // max_points)
+    trace = TraceBuilder(int(np.asarray(rows["node"])[0]), len(rows["t_s"]), max_points)
+    trace.add(rows)
+    return trace.finish()
+
+
+class TraceBuilder:
+    """:func:`node_trace` of a node's ``total`` rows given piece by piece (:meth:`add`, in time order): the bins of
+    the rows so far are reduced as they fill, the rest waits (the same trace, point for point)."""
+
+    def __init__(self, node_id: int, total: int, max_points: int = TRACE_POINTS):
+        self.node_id = node_id
+        self.b = -(-2 * total // max_points) if total > max_points else 0  # rows a bin (0: every row kept)
+        self.kept: list[tuple] = []  # (t, err, est, true) pieces kept
+        self.pending: tuple | None = None  # the rows of the bin being filled
+
+    def add(self, rows: Mapping[str, np.ndarray]) -> None:
+        show = np.asarray(rows["running"]).astype(bool)
+        cols = (np.where(show, np.asarray(rows["t_s"], dtype=float), np.nan),
+                np.asarray(rows["yaw_error_deg"], dtype=float), np.asarray(rows["bias_est_deg_s"], dtype=float),
+                np.asarray(rows["bias_true_deg_s"], dtype=float))
+        if self.pending is not None:
+            cols = tuple(np.concatenate([a, c]) for a, c in zip(self.pending, cols))
+            self.pending = None
+        if not self.b:
+            self.kept.append(cols)
+            return
+        full = cols[0].size // self.b * self.b
+        if full < cols[0].size:
+            self.pending = tuple(c[full:] for c in cols)
+        if full:
+            self.kept.append(self._reduce(tuple(c[:full] for c in cols)))
+
+    def _reduce(self, cols: tuple) -> tuple:
+        """Per bin of b rows (the last one padded with its last row), the rows of the smallest and largest error."""
+        b, err = self.b, cols[1]
+        K = err.size
         starts = np.arange(0, K, b)
         key = np.where(np.isnan(err), 0.0, err)
         pad = (-K) % b
@@ -55,8 +84,14 @@ def node_trace(rows: Mapping[str, np.ndarray], max_points: int = TRACE_POINTS) -
         keep = np.zeros(K, dtype=bool)
         keep[np.minimum(lo, K - 1)] = True
         keep[np.minimum(hi, K - 1)] = True
-        t, err, est, true = t[keep], err[keep], est[keep], true[keep]
-    return NodeTrace(int(np.asarray(rows["node"])[0]), t, err, est, true)
+        return tuple(c[keep] for c in cols)
+
+    def finish(self) -> NodeTrace:
+        if self.pending is not None and self.pending[0].size:
+            self.kept.append(self._reduce(self.pending) if self.b else self.pending)
+            self.pending = None
+        cols = [np.concatenate([k[i] for k in self.kept]) if self.kept else np.zeros(0) for i in range(4)]
+        return NodeTrace(self.node_id, *cols)
 
 
 @njit(cache=True, _nrt=False, nogil=True)
@@ -92,34 +127,47 @@ class YawPlotData:
         self.node_ids = list(node_ids)
         self.shown = set(shown_nodes(self.node_ids))
         self.duration_s = float(duration_s)
-        self.traces: list[NodeTrace] = []
+        self._traces: dict[int, TraceBuilder] = {}  # the drawn nodes' traces (a node's rows may come in windows of
+        # time, :mod:`nodesim.chain.compiled.time_windows`)
         self.band = None
         if len(self.shown) < len(self.node_ids):
             self.band = (np.full(BAND_BINS, np.inf), np.full(BAND_BINS, -np.inf))
 
     @classmethod
     def from_table(cls, timeseries: Mapping[str, np.ndarray], duration_s: float) -> "YawPlotData":
-        """Fed with every node of a whole timeseries table."""
+        """Fed with every node of a whole timeseries table (a node's rows in one block, or in blocks in time order:
+        a run in windows of time writes each window's rows of every node)."""
         node = np.asarray(timeseries["node"])
         starts = np.flatnonzero(np.concatenate([[True], node[1:] != node[:-1]])) if node.size else np.zeros(0, int)
         ends = np.concatenate([starts[1:], [node.size]])
-        data = cls([int(node[a]) for a in starts], duration_s)
+        ids, totals = np.unique(node, return_counts=True)
+        data = cls([int(i) for i in ids], duration_s)
+        total = dict(zip(ids.tolist(), totals.tolist()))
         keys = ("node", "t_s", "running", "yaw_error_deg", "bias_est_deg_s", "bias_true_deg_s")
         cols = {k: np.asarray(timeseries[k]) for k in keys}
         for a, b in zip(starts, ends):
-            data.add({k: v[a:b] for k, v in cols.items()})
+            data.add({k: v[a:b] for k, v in cols.items()}, total[int(node[a])])
         return data
 
-    def add(self, rows: Mapping[str, np.ndarray]) -> None:
-        """One node's rows (its timeseries columns)."""
+    def add(self, rows: Mapping[str, np.ndarray], total_rows: int | None = None) -> None:
+        """One node's rows (its timeseries columns), all of them, or a piece of its ``total_rows`` (the pieces in
+        time order)."""
         node_id = int(np.asarray(rows["node"])[0])
         if node_id in self.shown:
-            self.traces.append(node_trace(rows))
+            if node_id not in self._traces:
+                self._traces[node_id] = TraceBuilder(node_id, len(rows["t_s"]) if total_rows is None else total_rows)
+            self._traces[node_id].add(rows)
         if self.band is None:
             return
         lo, hi = self.band
         band_add(np.ascontiguousarray(rows["t_s"], dtype=float), np.ascontiguousarray(rows["running"], dtype=np.int64),
                  np.ascontiguousarray(rows["yaw_error_deg"], dtype=float), self.duration_s, lo, hi)
+
+    @property
+    def traces(self) -> list[NodeTrace]:
+        """The drawn nodes' traces (:func:`node_trace` of all the rows each was given), in node order (after the
+        last rows)."""
+        return [self._traces[i].finish() for i in sorted(self._traces)]
 
     def band_deg(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """(bin centres [s], smallest, largest yaw error [deg]) of the bins any node had a point in, or None."""

@@ -116,6 +116,10 @@ class SampleTruth:
         """(4,) U[j_hi]: the sums of every sample (the ``start_sums`` of a truth that continues this one)."""
         return self._sums[-1].copy()
 
+    def sums_at(self, j: int) -> np.ndarray:
+        """(4,) U[j] (j_lo <= j <= j_hi): the ``start_sums`` of a truth that continues this one from sample j."""
+        return self._sums[j - self.j_lo].copy()
+
     def covers(self, a: int, b: int) -> bool:
         return self.j_lo <= a and b <= self.j_hi
 

@@ -38,7 +38,7 @@ from firmware_model import node_firmware as nf
 from firmware_model import six_state_fixed as six_state
 from nodesim.chain import bit_errors
 from nodesim.chain import scratch as spill
-from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node
+from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node, time_windows
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.references import above_nodes, float_references
 from nodesim.chain.packets import SurveyPacket
@@ -512,6 +512,9 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
         progress(0.5)  # phase 1 done; phase 2 reports node by node
     N = net.n_nodes
     surveys, summaries = list(net.ground), []
+    if time_windows.windowed(net.scenario, on_node):  # phase 2 window by window of time (issue 20)
+        summaries = time_windows.run_windows(net, out, plan, K, on_node, surveys, progress)
+        return net.result(runs=(), surveys=surveys, summaries=summaries)
     streams = _NodeOutputs(net, on_node, surveys) if on_node is not None else None
     try:
         for n in range(N):

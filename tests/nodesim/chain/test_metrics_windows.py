@@ -105,7 +105,7 @@ def test_node_metrics_from_windows_of_ticks_are_those_at_once(over):
     node_metrics' values: bit for bit, except the RMS errors and the mean age, whose window sums are added
     (equal to 1e-13 relative); drilling (survey stops as metric windows, a dead node) and lab motion with the
     output moving average and timeouts."""
-    from nodesim.chain.metrics import NodeMetricSums, _hold_ticks, node_metrics
+    from nodesim.chain.metrics import NodeMetricSums, bias_hold_ticks, node_metrics
     from nodesim.chain.network import simulate_chain
     from nodesim.scenario.schema import Scenario
 
@@ -117,7 +117,7 @@ def test_node_metrics_from_windows_of_ticks_are_those_at_once(over):
         K = node.t_s.size
         cuts = np.unique(np.concatenate([[0, 1, 2, K], rng.integers(0, K, size=12), np.arange(0, K, 7)]))
         sums = NodeMetricSums(run.motion, scenario.metrics, node.yaw_est_rad.shape[0],
-                              _hold_ticks(node.t_s, scenario.metrics.bias_hold_s))
+                              bias_hold_ticks(node.t_s, scenario.metrics.bias_hold_s))
         for a, b in zip(cuts[:-1], cuts[1:]):
             sums.add(node.ticks(int(a), int(b)))
         got = sums.metrics()

@@ -1,0 +1,439 @@
+"""Phase 2 of a streamed run in windows of time: every node over the window's ticks, top down, then the next window,
+so that what a run holds grows with the window (:data:`WINDOW_S`) and the chain's length, not with its duration
+(issue 20: peak memory flat as the duration doubles).
+
+Node by node (:func:`.engine.simulate_compiled`), each node's sensor readings and records span the run, and every
+node reads the sensors' shared per-sample truth of the whole run.  Here, for each window [t0, t1) of
+:data:`WINDOW_S` and each node n from the top, its ticks k0 <= k < k1 with t0 <= T_n[k] < t1 are run by the same
+steps over a window of ticks, each carrying its state from the node's window before:
+
+* its count sums (:class:`nodesim.sensors.chain_imu.NodeImuStream`: the streams' states, the Gauss-Markov bias) from
+  a shared truth over the window's samples only (:class:`nodesim.sensors.sample_truth.SampleTruth`, continuing the
+  last window's prefix sums: the same sums);
+* its firmware (:func:`.filters.run_node_firmware` from the lanes where the last window left them) on phase 1's
+  records of those ticks, with the estimate frames of the node above and two above (:mod:`.frame_pass`), which keep
+  of their last window only the frames a later tick takes (:meth:`_Node.trim`);
+* its survey words (:func:`firmware_model.node_survey.fixed_surveys_window`), its outputs
+  (:meth:`nodesim.chain.streaming.NodeStream.node_windows`: timeseries rows, the metrics' sums, survey rows).
+The numbers are those of the node-by-node run, bit for bit, except the RMS errors and the mean update age, whose
+window sums are added (:class:`nodesim.chain.metrics.NodeMetricSums`, ~1e-15 relative); the timeseries table's rows
+come window by window (node, then time, inside a window).  Covered: the fixed-point 2-state firmware without
+``mac.bit_errors`` (:func:`windowed`), the drilling day's; other runs go node by node.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
+from typing import Callable
+
+import numpy as np
+from numba import njit
+
+from firmware_model import frames as fr
+from firmware_model import node_firmware as nf
+from firmware_model import six_state_fixed as six_state
+from firmware_model.cordic import angle_rad_into
+from firmware_model.node_survey import MA_RING, fixed_surveys_window
+from nodesim import threads
+from nodesim.chain import scratch as spill
+from nodesim.chain.compiled import events as ev
+from nodesim.chain.compiled import filters, frame_pass, six_state_fixed_node
+from nodesim.chain.compiled import tick_plan as tp
+from nodesim.chain.estimator import alignment_ticks, alignment_window_s, timer_us
+from nodesim.chain.records import NodeRun
+from nodesim.chain.sensing import reference_error_rad
+from nodesim.chain.six_state_firmware_lanes import firmware_lanes
+from nodesim.errors import NodesimError
+from nodesim.sensors.chain_imu import ChainImu, NodeImuStream
+from nodesim.sensors.sample_truth import SampleTruth
+
+WINDOW_S = 3600.0
+"""The window of simulated time phase 2 runs every node over before the next (module docstring): a run of up to this
+long is one window; a longer one holds this much of each node's records at a time (~2.7 MB a node for the
+drilling day's one realization) and a shared truth of this many seconds of samples (~7.5 MB)."""
+
+
+def windowed(scenario, on_node) -> bool:
+    """Whether a streamed run goes window by window (module docstring): ``on_node`` takes windows
+    (:class:`nodesim.chain.streaming.NodeStream`), the fixed-point 2-state firmware, no ``mac.bit_errors``."""
+    return (hasattr(on_node, "node_windows") and scenario.filter.implementation == "fixed"
+            and scenario.filter.states == 2 and not scenario.mac.bit_errors)
+
+
+class _Span:
+    """The samples a whole-run shared truth would cover (:func:`nodesim.chain.sensing.shared_truth`): a node whose
+    samples fall outside reads a truth of its own (:class:`NodeImuStream`)."""
+
+    def __init__(self, j_lo: int, j_hi: int):
+        self.j_lo, self.j_hi = j_lo, j_hi
+
+    def covers(self, a: int, b: int) -> bool:
+        return self.j_lo <= a and b <= self.j_hi
+
+
+class _Node:
+    """What node index ``n`` carries from window to window (module docstring)."""
+
+    def __init__(self, net, n: int, plan, span: _Span | None, stream):
+        s, node = net.scenario, net.nodes[n]
+        t, R = node.t_s, net.R
+        self.n, self.node, self.K = n, node, t.size
+        self.k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
+        self.k_next = 0
+        starts = np.flatnonzero(np.asarray(plan[n, :t.size]) == tp.START)
+        self.n_static = int(starts[0]) if starts.size else -1
+        imu = ChainImu.from_scenario(s)
+        self.accel_sigma = imu.accel_density_m_s2_per_sqrt_hz / np.sqrt(net.dt_s)  # as node_signals gives it
+        self.imu = NodeImuStream(imu, net.motion, net._streams, n, t, net.dt_s, R, span)
+        self.fw = firmware_lanes(s, R)
+        self.six = six_state_fixed_node.build(self.fw)
+        self.work6 = six_state.new_work()
+        self.asks = 0  # encoder requests in the windows before
+        self.points = s.filter.moving_average_points
+        self.survey_states = np.zeros((R, MA_RING + 4 * self.points), np.int64)
+        self.first = int(np.searchsorted(t, node.timeline.present_from_s))
+        self.align = alignment_ticks(alignment_window_s(s), t[self.first:])
+        self.reference_error = reference_error_rad(s, net._streams, n)
+        self.clipped = np.zeros(R, np.int64)
+        self.frames: list[tuple[int, np.ndarray, np.ndarray]] = []  # (first tick, frames (R, k, 27), their tick
+        # times) the nodes below may take
+        self.stream = stream
+
+    def frames_from(self, j_min: int) -> tuple[np.ndarray, int]:
+        """(this node's frames from its tick ``j_min`` on, that tick) of those it keeps."""
+        parts = [(a, f) for a, f, _ in self.frames if a + f.shape[1] > j_min]
+        if not parts or parts[0][0] > j_min:
+            raise NodesimError(f"node {self.node.node_id}: its estimate frame of tick {j_min} was taken after the "
+                               "window it was kept for (nodesim.chain.compiled.time_windows)")
+        if len(parts) == 1:
+            a, f = parts[0]
+            return f[:, j_min - a:], j_min
+        return np.concatenate([f[:, max(j_min - a, 0):] for a, f in parts], axis=1), j_min
+
+    def trim(self, t_s: float) -> None:
+        """Keep the frames of the ticks from ``t_s`` on (a copy: the window's whole array is freed)."""
+        kept = []
+        for a, f, t in self.frames:
+            i = int(np.searchsorted(t, t_s, side="left"))
+            if i < t.size:
+                kept.append((a + i, f[:, i:].copy(), t[i:].copy()))
+        self.frames = kept
+
+
+@njit(cache=True, nogil=True)
+def _first_taken(src_offset, src_tick, s, k_first, k_end) -> int:
+    """The lowest sender tick of the references from ``s`` nodes up taken at ticks k_first .. k_end - 1 (-1: none)."""
+    best = -1
+    for r in range(src_offset.shape[0]):
+        for k in range(k_first, k_end):
+            if src_offset[r, k] == s and (best < 0 or src_tick[r, k] < best):
+                best = src_tick[r, k]
+    return best
+
+
+def run_windows(net, out: ev.Records, plan, K: np.ndarray, stream, surveys: list,
+                progress: Callable[[float], None] | None) -> tuple:
+    """Phase 2 window by window (module docstring); ``stream`` the run's :class:`NodeStream`, ``surveys`` the run's
+    list of ground surveys (each set as its frame is made).  Returns the nodes' summaries in node order."""
+    N, R = net.n_nodes, net.R
+    s = net.scenario
+    nodes: list[_Node | None] = [None] * N
+    total, done, steps_done = float(K.sum()), 0, 0
+    keep_s = s.chain.max_update_age_s + 1.0  # a frame older than this at a window's end is never taken after it
+    outputs, sensors = _Outputs(), _Sensors(net)
+    try:
+        steps = _steps(net, sensors)
+        ahead: list = []  # the next steps, their sensors under way on the worker
+        while True:
+            while len(ahead) <= SENSORS_AHEAD:
+                step = next(steps, None)
+                if step is None:
+                    break
+                t1, n, k0, k1 = step
+                if nodes[n] is None:
+                    nodes[n] = _Node(net, n, plan, sensors.span, stream.node_windows(net.nodes[n].node_id,
+                                                                                     net.nodes[n].t_s, R))
+                ahead.append((step, sensors.submit(nodes[n], k0, k1)))
+            if not ahead:
+                break
+            (t1, n, k0, k1), sensed = ahead.pop(0)
+            run, survey_from, mine = _window(net, nodes, n, k0, k1, sensed(), out, plan)
+            outputs.submit(_outputs_of, net, nodes[n], run, survey_from, k0, mine, surveys)
+            if n >= 2 and nodes[n - 2] is not None:  # its receivers (n - 1, n) have run this window
+                nodes[n - 2].trim(t1 - keep_s)
+            if not ahead or ahead[0][0][0] != t1:  # the window's last step: the last two nodes' receivers are done
+                for x in nodes[max(n - 1, 0):n + 1]:
+                    if x is not None:
+                        x.trim(t1 - keep_s)
+            done += k1 - k0
+            steps_done += 1
+            if steps_done % DROP_EVERY_STEPS == 0:
+                spill.drop(net.scratch)  # the whole-run tables' pages read so far (when they are on disk)
+            if progress is not None:
+                progress(0.5 + 0.5 * done / total)
+        outputs.close()
+    finally:
+        outputs.shutdown()
+        sensors.shutdown()
+    summaries = []
+    for n in range(N):
+        x = nodes[n]
+        summaries.append(x.stream.finish(out.stale[:, n].copy(), out.duplicate[:, n].copy(), x.fw.overflow_counts,
+                                         x.clipped, getattr(x.fw, "singular_ticks", None)))
+    return tuple(summaries)
+
+
+DROP_EVERY_STEPS = 8
+"""The whole-run tables' pages leave memory every this many (node, window) steps (:func:`nodesim.chain.scratch.drop`,
+as :data:`.engine.DROP_EVERY_NODES`)."""
+
+SENSORS_AHEAD = 2
+"""Phase 2 in windows has the sensor readings of this many (node, window) steps made ahead on a worker thread while
+it runs the firmware of the one before (as :data:`.engine.ATTACH_AHEAD` node by node)."""
+
+
+def _steps(net, sensors: "_Sensors"):
+    """(window end, node index, k0, k1) of every (window, node) step with ticks, in run order; each window's shared
+    truth is queued on the sensors' worker before its first step."""
+    duration = net.scenario.simulation.duration_s
+    edges = [i * WINDOW_S for i in range(max(1, math.ceil(duration / WINDOW_S)) + 1)]
+    edges[-1] = math.inf
+    for t0, t1 in zip(edges[:-1], edges[1:]):
+        bounds = []
+        for n, node in enumerate(net.nodes):
+            k0, k1 = np.searchsorted(node.t_s, [t0, t1], side="left").tolist()
+            t = node.t_s  # the times the window's first tick reads samples after, and of its last tick
+            bounds.append((k0, k1, (t[k0 - 1] if k0 > 0 else t[0] - net.dt_s) if k0 < k1 else 0.0,
+                           t[k1 - 1] if k0 < k1 else 0.0))
+            if n % DROP_EVERY_STEPS == DROP_EVERY_STEPS - 1:
+                spill.drop(net.scratch)  # the pages of the tick table's rows the bisections read (~a row each)
+        sensors.next_window(bounds)
+        for n, (k0, k1, _, _) in enumerate(bounds):
+            if k0 < k1:
+                yield t1, n, k0, k1
+
+
+class _Sensors:
+    """The window steps' sensor readings (count sums and true attitude) made in order on one worker thread (in the
+    calling thread with ``NODESIM_THREADS = 1``), each window's shared truth before its steps'."""
+
+    def __init__(self, net):
+        self.net = net
+        s = net.scenario
+        self.imu = ChainImu.from_scenario(s)
+        rate = self.imu.sample_rate_hz
+        self.span = None
+        if net.motion.shared_attitude is not None:
+            self.span = _Span(math.floor(-net.dt_s * rate) + 1, math.floor(s.simulation.duration_s * rate) + 1)
+        self.pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-sensors") if threads.thread_count() > 1 else None
+        self.truth = self._later(lambda: None)
+
+    def _later(self, work: Callable):
+        if self.pool is None:
+            value = work()
+            return lambda: value
+        return self.pool.submit(work).result
+
+    def next_window(self, bounds: list) -> None:
+        last = self.truth
+        self.truth = self._later(lambda: _window_truth(self.net, self.imu, self.span, last(), bounds))
+
+    def submit(self, x: _Node, k0: int, k1: int) -> Callable:
+        truth, motion, n = self.truth, self.net.motion, x.n
+        return self._later(lambda: (x.imu.counts(k0, k1, truth()), motion.attitude(n, x.node.t_s[k0:k1])))
+
+    def shutdown(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _window_truth(net, imu, span: _Span | None, last: SampleTruth | None, bounds: list) -> SampleTruth | None:
+    """The shared truth of the samples the nodes' ticks of this window read (``bounds``: each node's (k0, k1, the time
+    after which its tick k0 reads samples, the time of its tick k1 - 1)),
+    continuing ``last`` (its prefix sums at this window's first sample); None where the nodes have no shared attitude."""
+    if span is None:
+        return None
+    rate = imu.sample_rate_hz
+    lo, hi = span.j_hi, span.j_lo
+    for k0, k1, before, last_t in bounds:
+        if k0 < k1:
+            lo = min(lo, math.floor(before * rate) + 1)
+            hi = max(hi, math.floor(last_t * rate) + 1)
+    lo, hi = max(lo, span.j_lo), min(hi, span.j_hi)
+    if last is not None:
+        lo = max(min(lo, last.j_hi), last.j_lo)
+    if hi <= lo:
+        return last
+    start = None if last is None else last.sums_at(lo)
+    if last is None and lo != span.j_lo:
+        lo, start = span.j_lo, None  # the run's first window: the truth starts where the whole run's does
+    return SampleTruth(imu, net.motion, lo, hi, shared=True, keep_readings=imu.sampling != "tick_sum",
+                       start_sums=start)
+
+
+def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.Records, plan) -> tuple:
+    """Node index ``n``'s ticks k0 .. k1 - 1: sensors, firmware, frames and survey words; (its records of the window
+    as a :class:`NodeRun` without the survey, (its yaw words, count sums) the survey is made from, the indices in
+    ``net.ground`` of the surveys it sent at those ticks)."""
+    x = nodes[n]
+    node, s, R = net.nodes[n], net.scenario, net.R
+    x.k_next = k1
+    t = node.t_s[k0:k1]
+    W = k1 - k0
+    codes = np.array(plan[n, k0:k1])
+    c, att = sensed  # (count sums, true attitude) of the window's ticks
+    x.clipped += c.gyro_clipped_samples + c.accel_clipped_samples
+    running = ev.running_ticks(codes, t, node.dead_at_s)
+    applied, offset, src_tick = out.applied[:, n, k0:k1], out.src_offset[:, n, k0:k1], out.src_tick[:, n, k0:k1]
+    above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
+    age = np.empty((R, W))
+    ev.forwarded_ages(t, offset, src_tick, above[0].t_s, above[1].t_s, age)
+    ask = np.flatnonzero(codes == tp.ASK)
+    rows = slice(int(out.ask_first[n]) + x.asks, int(out.ask_first[n]) + x.asks + ask.size)
+    x.asks += ask.size
+    if ask.size:
+        age[:, ask] = out.ask_age[:, rows]
+    yaw, var, bias = np.full((R, W), np.nan), np.full((R, W), np.nan), np.full((R, W), np.nan)
+    ref_yaw, ref_var = np.full((R, W), np.nan), np.full((R, W), np.nan)
+    yaw_raw, var_raw = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
+    frames = np.zeros((R, W, fr.ESTIMATE_BYTES), np.uint8) if n < net.n_nodes - 1 else None
+    at_tick = np.flatnonzero((codes == tp.STATIC) | (codes == tp.START))
+    static = codes[at_tick] == tp.STATIC
+    enc_yaw = net.encoder.read_many(t[at_tick])[0] if at_tick.size else None
+    if static.any():
+        yaw[:, at_tick[static]] = enc_yaw[static]
+    k_end = min(max(x.k_end - k0, 0), W)
+    if x.n_static >= 0 and k_end > 0:
+        _firmware(net, out, x, n, k0, k_end, t, codes, c, applied, offset, src_tick, above, ask, rows, at_tick, enc_yaw,
+                  (yaw, var, bias, ref_yaw, ref_var, yaw_raw, var_raw), frames, running, nodes)
+    if frames is not None:
+        x.frames.append((k0, frames, t))
+    run = NodeRun(
+        node_id=node.node_id, t_s=t, running=running, update_mask=applied, update_age_s=age,
+        true_yaw_rad=att.yaw_rad, true_inclination_rad=att.inclination_rad, true_azimuth_rad=att.azimuth_rad,
+        yaw_est_rad=yaw, yaw_var_rad2=var, true_bias_rad_s=c.true_bias_rad_s, bias_est_rad_s=bias,
+        inclination_rad=None, azimuth_rad=None, stale_packets=out.stale[:, n], duplicate_packets=out.duplicate[:, n],
+        filter_start_s=node.timeline.filter_start_s, accel_sigma_m_s2=x.accel_sigma, firmware_overflows={},
+        gyro_counts=c.gyro_counts, accel_counts=c.accel_counts, samples=c.samples, ref_yaw_rad=ref_yaw,
+        ref_var_rad2=ref_var, present_from_s=node.timeline.present_from_s, estimate_frames=frames,
+        reference_error_rad=x.reference_error)
+    mine = [i for i in net.surveys_of(n) if k0 <= net.ground[i].packet.tick < k1]
+    return run, (yaw_raw, c), mine
+
+
+def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, codes, c, applied, offset, src_tick, above, ask,
+              rows: slice, at_tick, enc_yaw, records: tuple, frames, running, nodes: list) -> None:
+    """The fixed firmware over the window's ticks 0 .. k_end - 1 (:func:`.engine._run_node_firmware` for a window)."""
+    yaw, var, bias, ref_yaw, ref_var, yaw_raw, var_raw = records
+    node, fw, R = net.nodes[n], x.fw, net.R
+    W = t.size
+    yaw_enc = np.zeros((R, W), np.int64)
+    if at_tick.size:
+        yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(enc_yaw)
+    enc_rate, back_us = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
+    if ask.size:
+        t_read = out.ask_t_read[:, rows]
+        y, rate = net.encoder.read_many(t_read)
+        yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
+        enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
+    rate_raw, bias_raw = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
+    rx = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
+    k_first = min(max(x.n_static + 1 - k0, 0), W)  # the first tick that may take a reference or send a frame
+    up_frames, up_first = [], np.zeros(2, np.int64)
+    for s in (1, 2):
+        j = _first_taken(offset, src_tick, s, k_first, k_end) if n - s >= 0 else -1
+        if j < 0:
+            up_frames.append(np.zeros((R, 1, fr.ESTIMATE_BYTES), np.uint8))
+        else:
+            f, up_first[s - 1] = nodes[n - s].frames_from(j)
+            up_frames.append(np.ascontiguousarray(f))  # (one layout for both: a copy only with realizations)
+    up_frames = tuple(up_frames)
+    inp, res = np.zeros((R, len(fw.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
+    words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
+
+    def run(r0: int, r1: int) -> np.ndarray:
+        counts = np.zeros(len(fw.SITES), dtype=np.int64)
+        if n > 0:
+            frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, up_first, *rx, r0, r1)
+        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, c.gyro_counts, c.accel_counts, c.samples,
+                                  t, codes, k_end, k0 == 0, applied, yaw_enc, enc_rate, back_us, offset, src_tick,
+                                  tuple(a.t_s for a in above), *rx, inp, res, yaw_raw, var_raw, rate_raw, bias_raw,
+                                  yaw, var, bias, ref_yaw, ref_var, r0, r1, *x.six, x.work6)
+        return counts
+
+    fw.counts += sum(threads.map_chunks(run, R))
+    if frames is not None:
+        status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
+            node.node_id, node.first_tick, net.forward_every_tick, running, k_first, k_end, k0, applied, t, yaw_raw,
+            var_raw, rate_raw, bias_raw, frames, words, r0, r1), R))
+        if status < 0:
+            name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
+            raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
+                               f"field (firmware_model/frames.py); the build's format is wider than the frame")
+
+
+def _survey_words(x: _Node, k0: int, c, yaw_raw: np.ndarray, scenario) -> tuple:
+    """(inclination (R, W), azimuth (R, W), (first, I words, A words)) of the window: the fixed firmware's moving
+    averaged survey (:func:`nodesim.chain.network._node_run`), carried in ``x.survey_states``."""
+    R, W = yaw_raw.shape
+    inc, azi = np.empty((R, W)), np.empty((R, W))
+    a = min(max(x.first - k0, 0), W)
+    inc[:, :a] = azi[:, :a] = np.nan
+    inc_raw, azi_raw = np.zeros((R, W - a), np.int64), np.zeros((R, W - a), np.int64)
+    if a < W:
+        cfg = x.fw.config
+        lo, hi = x.align
+        accel, n = c.accel_counts, np.ascontiguousarray(c.samples[a:])
+        base = k0 + a - x.first
+
+        def run(r0: int, r1: int) -> None:
+            fixed_surveys_window(np.ascontiguousarray(accel[r0:r1, a:]), np.ascontiguousarray(yaw_raw[r0:r1, a:]), n,
+                                 base, lo, hi, x.points, cfg.survey_mode, cfg.cordic_iterations,
+                                 x.survey_states[r0:r1], inc_raw[r0:r1], azi_raw[r0:r1], cfg.formats.yaw.frac_bits)
+
+        threads.map_chunks(run, R)
+        angle_rad_into(inc_raw, inc[:, a:])
+        angle_rad_into(azi_raw, azi[:, a:])
+    return inc, azi, (a, inc_raw, azi_raw)
+
+
+def _outputs_of(net, x: _Node, run: NodeRun, survey_from: tuple, k0: int, mine: list, surveys: list) -> None:
+    """A window's outputs: its survey words (:func:`_survey_words`), its surveys' frames as the ground station got them
+    (set in ``surveys``, :meth:`Network.survey_frame`) and the node's ``add`` (the survey packets' ticks counted from
+    the window's first)."""
+    inc, azi, survey_raw = _survey_words(x, k0, survey_from[1], survey_from[0], net.scenario)
+    run = replace(run, inclination_rad=inc, azimuth_rad=azi)
+    got = []
+    for i in mine:
+        surveys[i] = g = net.survey_frame(i, run, k0, survey_raw)
+        got.append(replace(g, packet=replace(g.packet, tick=g.packet.tick - k0)))
+    x.stream.add(run, k0, got)
+
+
+class _Outputs:
+    """The window steps' outputs (:meth:`NodeWindows.add`) on one worker thread, in order, at most
+    :data:`BACKLOG` waiting (with one thread, in the calling thread)."""
+
+    BACKLOG = 4
+
+    def __init__(self):
+        self.pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-outputs") if threads.thread_count() > 1 else None
+        self.pending: list = []
+
+    def submit(self, step: Callable, *args) -> None:
+        if self.pool is None:
+            step(*args)
+            return
+        self.pending.append(self.pool.submit(step, *args))
+        while len(self.pending) > self.BACKLOG or (self.pending and self.pending[0].done()):
+            self.pending.pop(0).result()
+
+    def close(self) -> None:
+        while self.pending:
+            self.pending.pop(0).result()
+
+    def shutdown(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True)
