@@ -34,7 +34,10 @@ of them is mapped at a time, ``SPILLED_RUN_TICK_BYTES`` per tick of the longest 
     peak ~ BASE_S + N s_n + K_max (s_k + s_spilled) + W R K_max b_rt
 
 (the drilling day 1.27 GB estimated against 1.12-1.17 GB measured, its first one and two hours 0.39 / 0.43 against
-0.41 / 0.45 GB).  Such a run also needs disk: the tables (:func:`nodesim.chain.scratch.whole_run_table_bytes`) in
+0.41 / 0.45 GB).  Where phase 2 runs in windows of time (:mod:`nodesim.chain.compiled.time_windows`: the fixed
+2-state firmware), what it holds of the longest node, its shared truth and its mapped tables are a window's: the
+K_max of these terms becomes the ticks of one window, K_w = min(K_max, window x rate + 1) (the drilling day in two
+windows: 0.71 GB estimated against 0.76-0.80 GB measured, 2026-12-06).  Such a run also needs disk: the tables (:func:`nodesim.chain.scratch.whole_run_table_bytes`) in
 the temporary directory and its streamed timeseries table (``TABLE_ROW_BYTES`` a row) in the run directory;
 :func:`check_run_memory` refuses it at once when either file system has less free (:func:`disk_needs`).
 tests/nodesim/chain/test_memory_budget.py checks both estimates against the measured peak
@@ -125,16 +128,27 @@ def estimate_run_memory(scenario: Scenario, engine: str, streamed: bool = False)
     b_rt = REALIZATION_TICK_BYTES[scenario.filter.implementation]
     if streamed and engine == "compiled":
         padded, k_max = len(ticks) * max(ticks), max(ticks)
-        window = int(STREAMED_WINDOW_NODES * R * k_max * b_rt)
+        k_held = min(k_max, _window_ticks(scenario))  # the ticks of the longest node phase 2 holds at a time
+        window = int(STREAMED_WINDOW_NODES * R * k_held * b_rt)
         base = STREAMED_BASE_BYTES + len(ticks) * STREAMED_NODE_BYTES
         if spills(len(ticks), k_max, R, scenario.mac.bit_errors):  # the whole-run tables on disk
-            return RunMemory(base, window, int(k_max * (STREAMED_RUN_TICK_BYTES + SPILLED_RUN_TICK_BYTES)),
+            return RunMemory(base, window, int(k_held * (STREAMED_RUN_TICK_BYTES + SPILLED_RUN_TICK_BYTES)),
                              node_ticks, R)
         return RunMemory(base, R * padded * STREAMED_REALIZATION_TICK_BYTES + window,
-                         int(padded * STREAMED_TICK_BYTES + k_max * STREAMED_RUN_TICK_BYTES), node_ticks, R)
+                         int(padded * STREAMED_TICK_BYTES + k_held * STREAMED_RUN_TICK_BYTES), node_ticks, R)
     kept = _kept_rows(scenario, ticks)
     tables = kept * TICK_BYTES + (node_ticks * EVENT_ENGINE_TICK_BYTES if engine == "event" else 0)
     return RunMemory(BASE_BYTES, R * node_ticks * b_rt, tables, node_ticks, R)
+
+
+def _window_ticks(scenario: Scenario) -> int:
+    """A streamed run's ticks of one window of time (:mod:`nodesim.chain.compiled.time_windows`: its records, shared
+    truth and mapped tables are a window's, not the run's) where phase 2 runs in windows, else of the whole run."""
+    from nodesim.chain.compiled.time_windows import covers, window_s
+
+    s = scenario.simulation
+    seconds = window_s(s.duration_s) if covers(scenario) else s.duration_s
+    return int(seconds * scenario.chain.firmware_rate_hz) + 1
 
 
 def check_run_memory(scenario: Scenario, engine: str, available_bytes: int | None,

@@ -1,10 +1,10 @@
 """Phase 2 of a streamed run in windows of time: every node over the window's ticks, top down, then the next window,
-so that what a run holds grows with the window (:data:`WINDOW_S`) and the chain's length, not with its duration
+so that what a run holds grows with the window (:func:`window_s`) and the chain's length, not with its duration
 (issue 20: peak memory flat as the duration doubles).
 
 Node by node (:func:`.engine.simulate_compiled`), each node's sensor readings and records span the run, and every
 node reads the sensors' shared per-sample truth of the whole run.  Here, for each window [t0, t1) of
-:data:`WINDOW_S` and each node n from the top, its ticks k0 <= k < k1 with t0 <= T_n[k] < t1 are run by the same
+:func:`window_s` and each node n from the top, its ticks k0 <= k < k1 with t0 <= T_n[k] < t1 are run by the same
 steps over a window of ticks, each carrying its state from the node's window before:
 
 * its count sums (:class:`nodesim.sensors.chain_imu.NodeImuStream`: the streams' states, the Gauss-Markov bias) from
@@ -50,16 +50,40 @@ from nodesim.sensors.chain_imu import ChainImu, NodeImuStream
 from nodesim.sensors.sample_truth import SampleTruth
 
 WINDOW_S = 3600.0
-"""The window of simulated time phase 2 runs every node over before the next (module docstring): a run of up to this
-long is one window; a longer one holds this much of each node's records at a time (~2.7 MB a node for the
-drilling day's one realization) and a shared truth of this many seconds of samples (~7.5 MB)."""
+"""The shortest window of simulated time phase 2 runs every node over before the next (module docstring): a run of up
+to this long is one window; a longer one holds a window of each node's records at a time (~2.7 MB a node and hour
+for the drilling day's one realization) and a shared truth of a window's samples (~7.5 MB an hour)."""
+
+MAX_WINDOWS = 2
+"""A run is cut into at most this many windows (of its duration / MAX_WINDOWS where that is longer than
+:data:`WINDOW_S`): each window costs every node a step of its own, and the steps do not come free.  Measured
+(2026-12-06, whole ``nodesim run`` processes under ``/usr/bin/time``, 2 cores): the drilling day in one window 65.2 /
+65.5 s and 1.10 GB peak (node by node: 62.4 / 64.9 / 67.2 s, 1.09 GB), in two 73.3 s and 0.80 GB (73.2 / 74.2 s,
+0.76-0.79 GB with the sensors in the main thread), in four 73.3 / 78.2 / 78.4 / 82.8 s and 0.61-0.64 GB, in 24 (one
+hour each) 157 s and 0.58 GB; its first 8 hours
+node by node 27.9 s, in one-hour windows 44.1 s (with ``NODESIM_THREADS = 1``: 39.9 s in one window against 43.3 s
+in one-hour windows).  A step costs ~0.5 ms of
+Python on one thread, but with the sensor, output and writer threads the run's CPU time grows ~2-4 ms a step
+(contention between the threads, not found in this session): so a run up to two hours long is held flat in
+memory, and a longer one takes windows of half its duration."""
+
+
+def window_s(duration_s: float) -> float:
+    """The window of a run of ``duration_s`` (:data:`WINDOW_S`, :data:`MAX_WINDOWS`)."""
+    return max(WINDOW_S, duration_s / MAX_WINDOWS)
 
 
 def windowed(scenario, on_node) -> bool:
     """Whether a streamed run goes window by window (module docstring): ``on_node`` takes windows
-    (:class:`nodesim.chain.streaming.NodeStream`), the fixed-point 2-state firmware, no ``mac.bit_errors``."""
-    return (hasattr(on_node, "node_windows") and scenario.filter.implementation == "fixed"
-            and scenario.filter.states == 2 and not scenario.mac.bit_errors)
+    (:class:`nodesim.chain.streaming.NodeStream`) and :func:`covers` the scenario."""
+    return hasattr(on_node, "node_windows") and covers(scenario)
+
+
+def covers(scenario) -> bool:
+    """Whether phase 2 can run ``scenario`` in windows: the fixed-point 2-state firmware without ``mac.bit_errors``
+    (the float filters and the 6-state firmware carry no state from window to window yet, nor do the bit errors'
+    tables)."""
+    return scenario.filter.implementation == "fixed" and scenario.filter.states == 2 and not scenario.mac.bit_errors
 
 
 class _Span:
@@ -189,35 +213,61 @@ DROP_EVERY_STEPS = 8
 """The whole-run tables' pages leave memory every this many (node, window) steps (:func:`nodesim.chain.scratch.drop`,
 as :data:`.engine.DROP_EVERY_NODES`)."""
 
-SENSORS_AHEAD = 2
-"""Phase 2 in windows has the sensor readings of this many (node, window) steps made ahead on a worker thread while
+SENSORS_AHEAD = 3
+"""Phase 2 in windows has the sensor readings of this many (node, window) steps made ahead on worker threads while
 it runs the firmware of the one before (as :data:`.engine.ATTACH_AHEAD` node by node)."""
+
+SENSOR_THREADS = 1
+"""Worker threads making the sensor readings (a node's windows in order: each is asked for after the one before was
+taken).  Two: the drilling day in four windows 83.6 / 84.6 s against 73.3-82.8 s with one (2026-12-06)."""
 
 
 def _steps(net, sensors: "_Sensors"):
     """(window end, node index, k0, k1) of every (window, node) step with ticks, in run order; each window's shared
     truth is queued on the sensors' worker before its first step."""
     duration = net.scenario.simulation.duration_s
-    edges = [i * WINDOW_S for i in range(max(1, math.ceil(duration / WINDOW_S)) + 1)]
+    W = window_s(duration)
+    edges = [i * W for i in range(max(1, math.ceil(duration / W)) + 1)]
     edges[-1] = math.inf
+    T, clock = net.tick_table, net.tick_clock()
+    K = np.array([node.t_s.size for node in net.nodes], np.int64)
     for t0, t1 in zip(edges[:-1], edges[1:]):
-        bounds = []
-        for n, node in enumerate(net.nodes):
-            k0, k1 = np.searchsorted(node.t_s, [t0, t1], side="left").tolist()
-            t = node.t_s  # the times the window's first tick reads samples after, and of its last tick
-            bounds.append((k0, k1, (t[k0 - 1] if k0 > 0 else t[0] - net.dt_s) if k0 < k1 else 0.0,
-                           t[k1 - 1] if k0 < k1 else 0.0))
-            if n % DROP_EVERY_STEPS == DROP_EVERY_STEPS - 1:
-                spill.drop(net.scratch)  # the pages of the tick table's rows the bisections read (~a row each)
+        b = np.zeros((len(net.nodes), 2), np.int64)
+        times = np.zeros((len(net.nodes), 2))
+        _window_bounds(T, clock, K, t0, t1, net.dt_s, b, times)
+        spill.drop(net.scratch)  # the tick table's pages the bisections read (none where the clocks are affine)
+        bounds = [(int(k0), int(k1), float(a), float(z)) for (k0, k1), (a, z) in zip(b, times)]
         sensors.next_window(bounds)
         for n, (k0, k1, _, _) in enumerate(bounds):
             if k0 < k1:
                 yield t1, n, k0, k1
 
 
+@njit(cache=True, nogil=True)
+def _window_bounds(T, clock, K, t0, t1, dt_s, bounds, times) -> None:
+    """Per node n: ``bounds[n]`` = (k0, k1), its ticks with t0 <= T_n[k] < t1 (bisections); ``times[n]`` = (the time
+    after which tick k0 reads samples: T_n[k0 - 1], or T_n[0] - dt at its first tick; T_n[k1 - 1]) where it has
+    some.  The times from the clock where it is affine (:func:`.events.tick_time`: the table's doubles, without
+    mapping its pages)."""
+    for n in range(K.size):
+        for i, t in enumerate((t0, t1)):
+            lo, hi = 0, K[n]
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if ev.tick_time(T, clock, n, mid) < t:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            bounds[n, i] = lo
+        k0, k1 = bounds[n, 0], bounds[n, 1]
+        if k0 < k1:
+            times[n, 0] = ev.tick_time(T, clock, n, k0 - 1) if k0 > 0 else ev.tick_time(T, clock, n, 0) - dt_s
+            times[n, 1] = ev.tick_time(T, clock, n, k1 - 1)
+
+
 class _Sensors:
-    """The window steps' sensor readings (count sums and true attitude) made in order on one worker thread (in the
-    calling thread with ``NODESIM_THREADS = 1``), each window's shared truth before its steps'."""
+    """The window steps' sensor readings (count sums and true attitude) made on :data:`SENSOR_THREADS` worker threads
+    (in the calling thread with ``NODESIM_THREADS = 1``), each window's shared truth before its steps'."""
 
     def __init__(self, net):
         self.net = net
@@ -227,7 +277,8 @@ class _Sensors:
         self.span = None
         if net.motion.shared_attitude is not None:
             self.span = _Span(math.floor(-net.dt_s * rate) + 1, math.floor(s.simulation.duration_s * rate) + 1)
-        self.pool = ThreadPoolExecutor(1, thread_name_prefix="nodesim-sensors") if threads.thread_count() > 1 else None
+        many = threads.thread_count() > 1
+        self.pool = ThreadPoolExecutor(SENSOR_THREADS, thread_name_prefix="nodesim-sensors") if many else None
         self.truth = self._later(lambda: None)
 
     def _later(self, work: Callable):
@@ -241,8 +292,9 @@ class _Sensors:
         self.truth = self._later(lambda: _window_truth(self.net, self.imu, self.span, last(), bounds))
 
     def submit(self, x: _Node, k0: int, k1: int) -> Callable:
-        truth, motion, n = self.truth, self.net.motion, x.n
-        return self._later(lambda: (x.imu.counts(k0, k1, truth()), motion.attitude(n, x.node.t_s[k0:k1])))
+        """The readings of node ``x``'s ticks k0 .. k1 - 1, asked for now: a function that returns them."""
+        truth, motion = self.truth, self.net.motion
+        return self._later(lambda: (x.imu.counts(k0, k1, truth()), motion.attitude(x.n, x.node.t_s[k0:k1])))
 
     def shutdown(self) -> None:
         if self.pool is not None:
@@ -280,7 +332,7 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
     x = nodes[n]
     node, s, R = net.nodes[n], net.scenario, net.R
     x.k_next = k1
-    t = node.t_s[k0:k1]
+    t = np.array(node.t_s[k0:k1])  # (a copy: the tick table's pages leave memory every few steps)
     W = k1 - k0
     codes = np.array(plan[n, k0:k1])
     c, att = sensed  # (count sums, true attitude) of the window's ticks
@@ -413,8 +465,8 @@ def _outputs_of(net, x: _Node, run: NodeRun, survey_from: tuple, k0: int, mine: 
 
 
 class _Outputs:
-    """The window steps' outputs (:meth:`NodeWindows.add`) on one worker thread, in order, at most
-    :data:`BACKLOG` waiting (with one thread, in the calling thread)."""
+    """The window steps' outputs (:meth:`NodeWindows.add`) on one worker thread, in order, at most :data:`BACKLOG`
+    waiting (with one thread, in the calling thread)."""
 
     BACKLOG = 4
 

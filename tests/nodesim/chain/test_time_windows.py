@@ -29,6 +29,7 @@ def _run(tmp_path: Path, name: str, scenario, monkeypatch, window_s: float | Non
             m.setattr(tw, "windowed", lambda scenario, on_node: False)
         else:
             m.setattr(tw, "WINDOW_S", window_s)
+            m.setattr(tw, "MAX_WINDOWS", 1000)
         run = simulate_scenario(scenario, None, stream_to=tmp_path / f"stage-{name}")
     run.save(tmp_path / name)
     return load_run(tmp_path / name)
@@ -165,3 +166,9 @@ def test_a_window_truth_goes_on_with_the_last_ones_sums():
         got, want = last.tick_sums(first, n), whole.tick_sums(first, n)
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
+
+
+def test_a_run_is_cut_into_windows_of_an_hour_at_most_two():
+    assert tw.window_s(600.0) == 3600.0  # one window
+    assert tw.window_s(7200.0) == 3600.0  # two hours: two windows of one
+    assert tw.window_s(86400.0) == 43200.0  # a day: two of twelve hours
