@@ -83,8 +83,8 @@ def timeseries_table(columns: dict[str, np.ndarray]):
 
 
 class TimeseriesFile:
-    """The timeseries table written block by block to ``path`` (``fmt`` "parquet": row groups of whole blocks, :attr:`ROW_GROUP_ROWS` rows or more,
-    :data:`PARQUET_OPTIONS`; "csv": :func:`nodesim.io.rundir.csv_text`, as ``write_csv`` writes it), through a
+    """The timeseries table written block by block to ``path`` (``fmt`` "parquet": row groups of whole blocks,
+    :attr:`ROW_GROUP_ROWS` rows or more, :data:`PARQUET_OPTIONS`; "csv": :func:`nodesim.io.rundir.csv_text`, as ``write_csv`` writes it), through a
     temporary file in the same directory that :meth:`close` renames into place (:meth:`abort` deletes it: a failed
     run leaves no partial table).  Parquet blocks are encoded on a writer thread (pyarrow releases the GIL) while
     the run goes on, at most :data:`QUEUED_BLOCKS` waiting; with ``NODESIM_THREADS = 1`` in the calling thread.  The

@@ -60,12 +60,14 @@ MAX_WINDOWS = 2
 (2026-12-06, whole ``nodesim run`` processes under ``/usr/bin/time``, 2 cores): the drilling day in one window 65.2 /
 65.5 s and 1.10 GB peak (node by node: 62.4 / 64.9 / 67.2 s, 1.09 GB), in two 73.3 s and 0.80 GB (73.2 / 74.2 s,
 0.76-0.79 GB with the sensors in the main thread), in four 73.3 / 78.2 / 78.4 / 82.8 s and 0.61-0.64 GB, in 24 (one
-hour each) 157 s and 0.58 GB; its first 8 hours
-node by node 27.9 s, in one-hour windows 44.1 s (with ``NODESIM_THREADS = 1``: 39.9 s in one window against 43.3 s
-in one-hour windows).  A step costs ~0.5 ms of
-Python on one thread, but with the sensor, output and writer threads the run's CPU time grows ~2-4 ms a step
-(contention between the threads, not found in this session): so a run up to two hours long is held flat in
-memory, and a longer one takes windows of half its duration."""
+hour each) 157 s and 0.58 GB; later, the VM faster, one after the other: one window 59.5 / 60.0 s, two 60.7 s,
+four 64.4 s, 24 99.0 s, with 21-23 k, 41 k, 88 k and 735 k voluntary context switches; its first 8 hours node by
+node 23.4 s, in one window 21.5 / 22.2 s, in one-hour windows 32.1-36.1 s (with ``NODESIM_THREADS = 1``: 39.9 s in
+one window against 43.3 s in one-hour windows).  A step costs ~0.5 ms of Python on one thread, but with the
+sensor, output and writer threads the run's CPU time grows ~1-3 ms a step: the threads hand the GIL over ~35 more
+times a step (the 8 hours in one-hour windows with the sensors and outputs in the main thread, only the writer
+beside it: 28.8 s and 15 k voluntary switches, against 32.3 s and 231 k with the threads, 22.2 s in one window).  So a run up to two hours long is held flat in memory, and a longer one takes
+windows of half its duration."""
 
 
 def window_s(duration_s: float) -> float:
