@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from nodesim import threads
-from nodesim.chain.metrics import NodeMetricSums, bias_hold_ticks, node_metrics
+from nodesim.chain.metrics import NodeMetricSums, bias_hold_ticks
 from nodesim.chain.records import GroundSurvey, NodeRun, NodeSummary
 from nodesim.chain.run_tables import (SURVEY_COLUMNS, TIMESERIES_COLUMNS, empty_timeseries, node_survey_rows,
                                       node_timeseries)
@@ -222,23 +222,11 @@ class NodeStream:
         return NodeWindows(self, node_id, t_s, realizations)
 
     def __call__(self, run: NodeRun, surveys: list[GroundSurvey]) -> NodeSummary:
-        s = self.scenario
-        if s.output.keeps_node(run.node_id, s.chain.nodes):
-            rows = node_timeseries(run, 0, s.output.tick_step)
-            if self.table is not None:
-                self.table.write(rows)
-            import_matplotlib()  # ``nodesim run`` draws the figure from these rows at its end (imported once)
-            self.plot.add(rows)
-        return NodeSummary(
-            node_id=run.node_id,
-            metrics=node_metrics(self.motion, run, s.metrics),
-            survey_rows=node_survey_rows(run, surveys, s.filter.moving_average_points),
-            stale_packets=run.stale_packets,
-            duplicate_packets=run.duplicate_packets,
-            firmware_overflows=run.firmware_overflows,
-            adc_clipped_samples=run.adc_clipped_samples,
-            singular_ticks=run.singular_ticks,
-        )
+        """All of a node's records at once: its outputs as one window of :class:`NodeWindows`."""
+        windows = self.node_windows(run.node_id, run.t_s, run.yaw_est_rad.shape[0])
+        windows.add(run, 0, surveys)
+        return windows.finish(run.stale_packets, run.duplicate_packets, run.firmware_overflows,
+                              run.adc_clipped_samples, run.singular_ticks)
 
 
 class NodeWindows:

@@ -40,9 +40,8 @@ from nodesim.chain import bit_errors
 from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node, time_windows
 from nodesim.chain.compiled import tick_plan as tp
-from nodesim.chain.compiled.references import above_nodes, float_references
+from nodesim.chain.compiled.references import above_nodes, asks, encoder_reads, encoder_words, float_references
 from nodesim.chain.packets import SurveyPacket
-from nodesim.chain.estimator import timer_us
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
@@ -311,23 +310,6 @@ def _each_chunk(T, K, dead_at, plan, clock: tuple, size: int, run: Callable, fin
                 return done, status
 
 
-def _asks(n: int, codes: np.ndarray, out: ev.Records) -> tuple[np.ndarray, slice]:
-    """Node index ``n``'s ``ASK`` ticks and where its requests are in ``out.ask_*``."""
-    ask = np.flatnonzero(codes == tp.ASK)
-    return ask, slice(int(out.ask_first[n]), int(out.ask_first[n]) + ask.size)
-
-
-def _encoder_reads(net, n: int, t: np.ndarray, codes: np.ndarray, out: ev.Records):
-    """Node index ``n``'s encoder replies at its ``ASK`` ticks: (those ticks, t_read (R, A), yaw (R, A), rate (R, A)),
-    read at the request's arrival (at the tick itself where the request was lost)."""
-    ask, rows = _asks(n, codes, out)
-    if not ask.size:
-        return ask, None, None, None
-    t_read = out.ask_t_read[:, rows]
-    yaw, rate = net.encoder.read_many(t_read)
-    return ask, t_read, yaw, rate
-
-
 def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
     """Node index ``n``'s records from phase 1: running, applied (a view), stale and duplicate packets, and each
     update's age: the encoder reply's from phase 1, a forwarded estimate's t_n[k] - t_(n-s)[j] again
@@ -340,7 +322,7 @@ def _attach_records(net, n: int, out: ev.Records, codes: np.ndarray) -> None:
     above = above_nodes(net, n)
     node.age = np.empty((net.R, K))  # every tick written below
     ev.forwarded_ages(node.t_s, out.src_offset[:, n, :K], out.src_tick[:, n, :K], above[0].t_s, above[1].t_s, node.age)
-    ask, rows = _asks(n, codes, out)
+    ask, rows = asks(n, codes, out)
     if ask.size:
         node.age[:, ask] = out.ask_age[:, rows]
 
@@ -366,7 +348,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
         return
     n_static = int(starts[0])
     if net.scenario.filter.states == 6 and net.scenario.filter.implementation != "fixed":  # float 6-state (issue 24)
-        six_state_node.run(net, n, out, k_end, n_static, codes, _encoder_reads(net, n, t, codes, out))
+        six_state_node.run(net, n, out, k_end, n_static, codes, encoder_reads(net, n, t, codes, out))
         return
     if net.scenario.filter.implementation == "fixed":
         _run_node_firmware(net, n, out, k_end, n_static, codes, bits, at_tick, enc_yaw)
@@ -375,7 +357,7 @@ def _run_node(net, n: int, out, bits, codes: np.ndarray) -> None:
     node.kf = new_filter(net.scenario, R, net.encoder.read(t[n_static])[0], bias0)
     node._record(n_static)
     state, params = float_kernel.lane_states(node.kf), float_kernel.kernel_params(node.kf)
-    enc_ref, offset, up = float_references(net, n, _encoder_reads(net, n, t, codes, out), out.src_offset)
+    enc_ref, offset, up = float_references(net, n, encoder_reads(net, n, t, codes, out), out.src_offset)
     src_tick = out.src_tick[:, n, :K]
 
     def run(r0: int, r1: int) -> np.ndarray:
@@ -422,13 +404,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     offset, src_tick = out.src_offset[:, n, :K], out.src_tick[:, n, :K]
     # the encoder's binary angle is read at the tick itself in the static window and at the start; at the top
     # node's requests, the reply read at the request's arrival; no other tick reads it
-    yaw_enc = np.zeros((R, K), np.int64)
-    yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(enc_yaw)
-    enc_rate, back_us = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
-    ask, t_read, y, rate = _encoder_reads(net, n, t, codes, out)
-    if ask.size:
-        yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
-        enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
+    yaw_enc, enc_rate, back_us = encoder_words(fw.config, R, t, at_tick, enc_yaw, encoder_reads(net, n, t, codes, out))
     above = above_nodes(net, n)
     # node.yaw_raw, node.var_raw and node.frames: the zero arrays :meth:`ChainNode.attach` made (not made again)
     rate_raw, bias_raw = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
@@ -456,10 +432,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
         status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
             node.node_id, node.first_tick, net.forward_every_tick, node.running, k_first, k_end, 0, node.applied, t,
             node.yaw_raw, node.var_raw, rate_raw, bias_raw, node.frames, words, r0, r1), R))
-        if status < 0:
-            name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
-            raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
-                               f"field (firmware_model/frames.py); the build's format is wider than the frame")
+        frame_pass.check_sent(status, node.node_id)
 
 
 WHOLE_FRAMES = np.zeros(2, np.int64)

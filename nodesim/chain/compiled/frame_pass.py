@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from firmware_model import frames as fr
+from nodesim.errors import NodesimError
 
 
 @njit(cache=True, _nrt=False, nogil=True)
@@ -55,3 +56,11 @@ def send_frames(node_id, first_tick, every_tick, running, k_first, k_end, k_base
                                        var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r], frames[r, k])
                 worst = min(worst, s)
     return worst
+
+
+def check_sent(status: int, node_id: int) -> None:
+    """Raise where :func:`send_frames` returned a status < 0 (a word that does not fit its field of the frame)."""
+    if status < 0:
+        name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
+        raise NodesimError(f"node {node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
+                           f"field (firmware_model/frames.py); the build's format is wider than the frame")

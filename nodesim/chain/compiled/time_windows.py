@@ -41,7 +41,8 @@ from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import events as ev
 from nodesim.chain.compiled import filters, frame_pass, six_state_fixed_node
 from nodesim.chain.compiled import tick_plan as tp
-from nodesim.chain.estimator import alignment_ticks, alignment_window_s, timer_us
+from nodesim.chain.compiled.references import asks, encoder_reads, encoder_words
+from nodesim.chain.estimator import alignment_ticks, alignment_window_s
 from nodesim.chain.records import NodeRun
 from nodesim.chain.sensing import reference_error_rad
 from nodesim.chain.six_state_firmware_lanes import firmware_lanes
@@ -102,15 +103,13 @@ class _Span:
 class _Node:
     """What node index ``n`` carries from window to window (module docstring)."""
 
-    def __init__(self, net, n: int, plan, span: _Span | None, stream):
+    def __init__(self, net, n: int, plan, imu: ChainImu, span: _Span | None, stream):
         s, node = net.scenario, net.nodes[n]
         t, R = node.t_s, net.R
-        self.n, self.node, self.K = n, node, t.size
+        self.n, self.node = n, node
         self.k_end = int(np.searchsorted(t, node.dead_at_s, side="left"))
-        self.k_next = 0
         starts = np.flatnonzero(np.asarray(plan[n, :t.size]) == tp.START)
         self.n_static = int(starts[0]) if starts.size else -1
-        imu = ChainImu.from_scenario(s)
         self.accel_sigma = imu.accel_density_m_s2_per_sqrt_hz / np.sqrt(net.dt_s)  # as node_signals gives it
         self.imu = NodeImuStream(imu, net.motion, net._streams, n, t, net.dt_s, R, span)
         self.fw = firmware_lanes(s, R)
@@ -127,16 +126,16 @@ class _Node:
         # times) the nodes below may take
         self.stream = stream
 
-    def frames_from(self, j_min: int) -> tuple[np.ndarray, int]:
-        """(this node's frames from its tick ``j_min`` on, that tick) of those it keeps."""
+    def frames_from(self, j_min: int) -> np.ndarray:
+        """This node's frames from its tick ``j_min`` on (of those it keeps)."""
         parts = [(a, f) for a, f, _ in self.frames if a + f.shape[1] > j_min]
         if not parts or parts[0][0] > j_min:
             raise NodesimError(f"node {self.node.node_id}: its estimate frame of tick {j_min} was taken after the "
                                "window it was kept for (nodesim.chain.compiled.time_windows)")
         if len(parts) == 1:
             a, f = parts[0]
-            return f[:, j_min - a:], j_min
-        return np.concatenate([f[:, max(j_min - a, 0):] for a, f in parts], axis=1), j_min
+            return f[:, j_min - a:]
+        return np.concatenate([f[:, max(j_min - a, 0):] for a, f in parts], axis=1)
 
     def trim(self, t_s: float) -> None:
         """Keep the frames of the ticks from ``t_s`` on (a copy: the window's whole array is freed)."""
@@ -179,8 +178,8 @@ def run_windows(net, out: ev.Records, plan, K: np.ndarray, stream, surveys: list
                     break
                 t1, n, k0, k1 = step
                 if nodes[n] is None:
-                    nodes[n] = _Node(net, n, plan, sensors.span, stream.node_windows(net.nodes[n].node_id,
-                                                                                     net.nodes[n].t_s, R))
+                    nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span,
+                                     stream.node_windows(net.nodes[n].node_id, net.nodes[n].t_s, R))
                 ahead.append((step, sensors.submit(nodes[n], k0, k1)))
             if not ahead:
                 break
@@ -316,13 +315,13 @@ def _window_truth(net, imu, span: _Span | None, last: SampleTruth | None, bounds
             lo = min(lo, math.floor(before * rate) + 1)
             hi = max(hi, math.floor(last_t * rate) + 1)
     lo, hi = max(lo, span.j_lo), min(hi, span.j_hi)
-    if last is not None:
+    if last is None:
+        lo = span.j_lo  # the run's first window: the truth starts where the whole run's does
+    else:
         lo = max(min(lo, last.j_hi), last.j_lo)
     if hi <= lo:
         return last
     start = None if last is None else last.sums_at(lo)
-    if last is None and lo != span.j_lo:
-        lo, start = span.j_lo, None  # the run's first window: the truth starts where the whole run's does
     return SampleTruth(imu, net.motion, lo, hi, shared=True, keep_readings=imu.sampling != "tick_sum",
                        start_sums=start)
 
@@ -332,8 +331,7 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
     as a :class:`NodeRun` without the survey, (its yaw words, count sums) the survey is made from, the indices in
     ``net.ground`` of the surveys it sent at those ticks)."""
     x = nodes[n]
-    node, s, R = net.nodes[n], net.scenario, net.R
-    x.k_next = k1
+    node, R = net.nodes[n], net.R
     t = np.array(node.t_s[k0:k1])  # (a copy: the tick table's pages leave memory every few steps)
     W = k1 - k0
     codes = np.array(plan[n, k0:k1])
@@ -344,9 +342,7 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
     above = [net.nodes[i] if i >= 0 else node for i in (n - 1, n - 2)]
     age = np.empty((R, W))
     ev.forwarded_ages(t, offset, src_tick, above[0].t_s, above[1].t_s, age)
-    ask = np.flatnonzero(codes == tp.ASK)
-    rows = slice(int(out.ask_first[n]) + x.asks, int(out.ask_first[n]) + x.asks + ask.size)
-    x.asks += ask.size
+    ask, rows = asks(n, codes, out, x.asks)
     if ask.size:
         age[:, ask] = out.ask_age[:, rows]
     yaw, var, bias = np.full((R, W), np.nan), np.full((R, W), np.nan), np.full((R, W), np.nan)
@@ -360,8 +356,9 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
         yaw[:, at_tick[static]] = enc_yaw[static]
     k_end = min(max(x.k_end - k0, 0), W)
     if x.n_static >= 0 and k_end > 0:
-        _firmware(net, out, x, n, k0, k_end, t, codes, c, applied, offset, src_tick, above, ask, rows, at_tick, enc_yaw,
+        _firmware(net, out, x, n, k0, k_end, t, codes, c, applied, offset, src_tick, above, at_tick, enc_yaw,
                   (yaw, var, bias, ref_yaw, ref_var, yaw_raw, var_raw), frames, running, nodes)
+    x.asks += ask.size
     if frames is not None:
         x.frames.append((k0, frames, t))
     run = NodeRun(
@@ -377,21 +374,14 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
     return run, (yaw_raw, c), mine
 
 
-def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, codes, c, applied, offset, src_tick, above, ask,
-              rows: slice, at_tick, enc_yaw, records: tuple, frames, running, nodes: list) -> None:
+def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, codes, c, applied, offset, src_tick, above,
+              at_tick, enc_yaw, records: tuple, frames, running, nodes: list) -> None:
     """The fixed firmware over the window's ticks 0 .. k_end - 1 (:func:`.engine._run_node_firmware` for a window)."""
     yaw, var, bias, ref_yaw, ref_var, yaw_raw, var_raw = records
     node, fw, R = net.nodes[n], x.fw, net.R
     W = t.size
-    yaw_enc = np.zeros((R, W), np.int64)
-    if at_tick.size:
-        yaw_enc[:, at_tick] = fw.config.encoder_yaw_raw(enc_yaw)
-    enc_rate, back_us = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
-    if ask.size:
-        t_read = out.ask_t_read[:, rows]
-        y, rate = net.encoder.read_many(t_read)
-        yaw_enc[:, ask] = fw.config.encoder_yaw_raw(y)
-        enc_rate[:, ask], back_us[:, ask] = fw.config.encoder_rate_raw(rate), timer_us(t_read - t[ask])
+    yaw_enc, enc_rate, back_us = encoder_words(fw.config, R, t, at_tick, enc_yaw,
+                                               encoder_reads(net, n, t, codes, out, x.asks))
     rate_raw, bias_raw = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
     rx = np.zeros((R, W), np.int64), np.zeros((R, W), np.int64)
     k_first = min(max(x.n_static + 1 - k0, 0), W)  # the first tick that may take a reference or send a frame
@@ -401,8 +391,8 @@ def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, co
         if j < 0:
             up_frames.append(np.zeros((R, 1, fr.ESTIMATE_BYTES), np.uint8))
         else:
-            f, up_first[s - 1] = nodes[n - s].frames_from(j)
-            up_frames.append(np.ascontiguousarray(f))  # (one layout for both: a copy only with realizations)
+            up_first[s - 1] = j
+            up_frames.append(np.ascontiguousarray(nodes[n - s].frames_from(j)))  # (one layout for both: a copy only with realizations)
     up_frames = tuple(up_frames)
     inp, res = np.zeros((R, len(fw.INPUTS)), np.int64), np.zeros((R, len(nf.OUTPUTS)), np.int64)
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
@@ -422,13 +412,10 @@ def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, co
         status = min(threads.map_chunks(lambda r0, r1: frame_pass.send_frames(
             node.node_id, node.first_tick, net.forward_every_tick, running, k_first, k_end, k0, applied, t, yaw_raw,
             var_raw, rate_raw, bias_raw, frames, words, r0, r1), R))
-        if status < 0:
-            name, width = fr.FIELDS[fr.ESTIMATE][-status - 1][:2]
-            raise NodesimError(f"node {node.node_id}: its {name} word does not fit the estimate frame's {8 * width}-bit "
-                               f"field (firmware_model/frames.py); the build's format is wider than the frame")
+        frame_pass.check_sent(status, node.node_id)
 
 
-def _survey_words(x: _Node, k0: int, c, yaw_raw: np.ndarray, scenario) -> tuple:
+def _survey_words(x: _Node, k0: int, c, yaw_raw: np.ndarray) -> tuple:
     """(inclination (R, W), azimuth (R, W), (first, I words, A words)) of the window: the fixed firmware's moving
     averaged survey (:func:`nodesim.chain.network._node_run`), carried in ``x.survey_states``."""
     R, W = yaw_raw.shape
@@ -457,7 +444,7 @@ def _outputs_of(net, x: _Node, run: NodeRun, survey_from: tuple, k0: int, mine: 
     """A window's outputs: its survey words (:func:`_survey_words`), its surveys' frames as the ground station got them
     (set in ``surveys``, :meth:`Network.survey_frame`) and the node's ``add`` (the survey packets' ticks counted from
     the window's first)."""
-    inc, azi, survey_raw = _survey_words(x, k0, survey_from[1], survey_from[0], net.scenario)
+    inc, azi, survey_raw = _survey_words(x, k0, survey_from[1], survey_from[0])
     run = replace(run, inclination_rad=inc, azimuth_rad=azi)
     got = []
     for i in mine:
