@@ -24,13 +24,12 @@ from functools import partial
 import numpy as np
 import simpy
 
-from firmware_model.cordic import angle_rad_into
-from firmware_model.node_survey import fixed_surveys
+from firmware_model.node_survey import MA_RING
 from nodesim import threads
 from firmware_model import frames as fr
 from nodesim.chain import faults, scratch
 from nodesim.chain.bit_errors import FrameErrors
-from nodesim.chain.compiled.surveys import averaged_surveys
+from nodesim.chain.compiled.surveys import averaged_surveys, fixed_survey_words
 from nodesim.chain.estimator import alignment_ticks, alignment_window_s, require_engine_filter
 from nodesim.chain.links import LazyStreams, LossDraws
 from nodesim.chain.mac import Link, RadioState, radio_energy_j
@@ -437,7 +436,7 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
     """Resolve the survey (thesis eqs 1.1-1.3) and apply the firmware moving average from the node's first tick,
     with the mid-window yaw and the alignment offset over ``firmware.alignment``'s window
     (:func:`nodesim.chain.estimator.alignment_window_s`): the fixed firmware (``node.yaw_raw`` set) as the MCU
-    does it, :func:`firmware_model.node_survey.fixed_surveys` on the accelerometer count sums and the yaw word
+    does it, :func:`nodesim.chain.compiled.surveys.fixed_survey_words` on the accelerometer count sums and the yaw word
     (``[firmware] survey_math``, ``cordic_iterations``); the float filter by
     :func:`nodesim.chain.compiled.surveys.averaged_surveys`."""
     R, K = node.yaw.shape
@@ -447,19 +446,9 @@ def _node_run(node: ChainNode, points: int) -> NodeRun:
     lo, hi = alignment_ticks(alignment_window_s(node.net.scenario), node.sig.t_s[first:])
     if first < K and getattr(node, "yaw_raw", None) is not None:
         # the fixed firmware: survey from the accelerometer count sums and the yaw word, CORDIC or float32
-        cfg = node.fw.config
-        inc_raw, azi_raw = np.zeros((R, K - first), np.int64), np.zeros((R, K - first), np.int64)
-        accel, yaw_raw, n = node.sig.accel_counts, node.yaw_raw, np.ascontiguousarray(node.sig.samples[first:])
-        frac = cfg.formats.yaw.frac_bits
-
-        def run_fixed(r0: int, r1: int) -> None:
-            fixed_surveys(np.ascontiguousarray(accel[r0:r1, first:]), np.ascontiguousarray(yaw_raw[r0:r1, first:]),
-                          n, lo, hi, points, cfg.survey_mode, cfg.cordic_iterations, inc_raw[r0:r1], azi_raw[r0:r1],
-                          frac)
-
-        threads.map_chunks(run_fixed, R)
-        angle_rad_into(inc_raw, inc[:, first:])  # survey.inclination_rad / azimuth_rad, in place (same bits)
-        angle_rad_into(azi_raw, azi[:, first:])
+        states = np.zeros((R, MA_RING + 4 * points), np.int64)  # each realization's from ma_reset (first tick)
+        inc_raw, azi_raw = fixed_survey_words(node.fw.config, node.sig.accel_counts, node.yaw_raw, node.sig.samples,
+                                              first, 0, (lo, hi), points, states, inc, azi)
         node.survey_raw = (first, inc_raw, azi_raw)  # the survey frames' words (Network._survey_frames)
     elif first < K:
         def run(r0: int, r1: int) -> None:

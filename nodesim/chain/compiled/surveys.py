@@ -27,6 +27,9 @@ import math
 import numpy as np
 from numba import njit
 
+from firmware_model.cordic import angle_rad_into
+from firmware_model.node_survey import fixed_surveys_window
+from nodesim import threads
 from nodesim.chain.compiled.angles import mod_two_pi
 
 
@@ -122,3 +125,26 @@ def averaged_surveys_window(force, yaw_rad, k_base, align_lo, align_hi, points, 
         if K > 0:
             st[9] = yaw_rad[r, K - 1]
         it[0], it[1], it[2] = a_n, a_head, 1 if full else 0
+
+
+def fixed_survey_words(config, accel_counts, yaw_raw, samples, a: int, base: int, align: tuple[int, int],
+                       points: int, states, inc_out, azi_out) -> tuple[np.ndarray, np.ndarray]:
+    """The fixed firmware's survey (:func:`firmware_model.node_survey.fixed_surveys_window`: from the accelerometer
+    count sums (R, K, 3) and the yaw words (R, K), CORDIC or float32 as ``config`` builds it) of ticks ``a`` .. K - 1
+    of the arrays, the node's ticks ``base`` on (its first: its moving average and alignment ``align`` start there,
+    in ``states``), on ranges of realizations; their I and A in radians into ``inc_out[:, a:]``, ``azi_out[:, a:]``
+    (:func:`firmware_model.cordic.angle_rad_into`); returns the words (R, K - a) (the survey frames')."""
+    R, K = yaw_raw.shape
+    inc_raw, azi_raw = np.zeros((R, K - a), np.int64), np.zeros((R, K - a), np.int64)
+    n = np.ascontiguousarray(samples[a:])
+    lo, hi = align
+
+    def run(r0: int, r1: int) -> None:
+        fixed_surveys_window(np.ascontiguousarray(accel_counts[r0:r1, a:]), np.ascontiguousarray(yaw_raw[r0:r1, a:]),
+                             n, base, lo, hi, points, config.survey_mode, config.cordic_iterations, states[r0:r1],
+                             inc_raw[r0:r1], azi_raw[r0:r1], config.formats.yaw.frac_bits)
+
+    threads.map_chunks(run, R)
+    angle_rad_into(inc_raw, inc_out[:, a:])  # survey.inclination_rad / azimuth_rad, in place (same bits)
+    angle_rad_into(azi_raw, azi_out[:, a:])
+    return inc_raw, azi_raw

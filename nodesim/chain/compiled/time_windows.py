@@ -34,14 +34,14 @@ from numba import njit
 from firmware_model import frames as fr
 from firmware_model import node_firmware as nf
 from firmware_model import six_state_fixed as six_state
-from firmware_model.cordic import angle_rad_into
-from firmware_model.node_survey import MA_RING, fixed_surveys_window
+from firmware_model.node_survey import MA_RING
 from nodesim import threads
 from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import events as ev
 from nodesim.chain.compiled import filters, frame_pass, six_state_fixed_node
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.references import asks, encoder_reads, encoder_words
+from nodesim.chain.compiled.surveys import fixed_survey_words
 from nodesim.chain.estimator import alignment_ticks, alignment_window_s
 from nodesim.chain.records import NodeRun
 from nodesim.chain.sensing import reference_error_rad
@@ -417,26 +417,16 @@ def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, co
 
 def _survey_words(x: _Node, k0: int, c, yaw_raw: np.ndarray) -> tuple:
     """(inclination (R, W), azimuth (R, W), (first, I words, A words)) of the window: the fixed firmware's moving
-    averaged survey (:func:`nodesim.chain.network._node_run`), carried in ``x.survey_states``."""
+    averaged survey (:func:`nodesim.chain.compiled.surveys.fixed_survey_words`) from the node's first tick on,
+    carried in ``x.survey_states``."""
     R, W = yaw_raw.shape
     inc, azi = np.empty((R, W)), np.empty((R, W))
     a = min(max(x.first - k0, 0), W)
     inc[:, :a] = azi[:, :a] = np.nan
-    inc_raw, azi_raw = np.zeros((R, W - a), np.int64), np.zeros((R, W - a), np.int64)
+    inc_raw, azi_raw = np.zeros((R, 0), np.int64), np.zeros((R, 0), np.int64)
     if a < W:
-        cfg = x.fw.config
-        lo, hi = x.align
-        accel, n = c.accel_counts, np.ascontiguousarray(c.samples[a:])
-        base = k0 + a - x.first
-
-        def run(r0: int, r1: int) -> None:
-            fixed_surveys_window(np.ascontiguousarray(accel[r0:r1, a:]), np.ascontiguousarray(yaw_raw[r0:r1, a:]), n,
-                                 base, lo, hi, x.points, cfg.survey_mode, cfg.cordic_iterations,
-                                 x.survey_states[r0:r1], inc_raw[r0:r1], azi_raw[r0:r1], cfg.formats.yaw.frac_bits)
-
-        threads.map_chunks(run, R)
-        angle_rad_into(inc_raw, inc[:, a:])
-        angle_rad_into(azi_raw, azi[:, a:])
+        inc_raw, azi_raw = fixed_survey_words(x.fw.config, c.accel_counts, yaw_raw, c.samples, a, k0 + a - x.first,
+                                              x.align, x.points, x.survey_states, inc, azi)
     return inc, azi, (a, inc_raw, azi_raw)
 
 
