@@ -166,7 +166,7 @@ class Network:
         self._survey_hops: list[list] = []
         self._pending: list = []  # (node indices, their readings when called): prepare_signals'
         self._ready: dict = {}  # node index -> its readings, computed, not yet attached
-        self._ground_by_node: dict[int, list[int]] | None = None  # surveys_of, once every survey is sent
+        self._ground_by_node: dict[int, list[int]] | None = None  # surveys_of's grouping of ground
         if attach_signals:
             self.attach_signals(range(c.nodes))
 
@@ -329,6 +329,7 @@ class Network:
         self.sent.append(packet)
         self.ground.append(GroundSurvey(packet.lost_where(np.isnan(arrival_s)), arrival_s))
         self._survey_hops.append(hops)
+        self._ground_by_node = None  # surveys_of groups them again
 
     def run(self, progress: Callable[[float], None] | None = None, steps: int = 200,
             on_node: Callable | None = None) -> ChainRun:
@@ -379,8 +380,8 @@ class Network:
         return GroundSurvey(p, g.arrival_s, frame)
 
     def surveys_of(self, index: int) -> list[int]:
-        """The indices in :attr:`ground` of the surveys node index ``index`` (0-based) sent (grouped once, on the
-        first call: the surveys are all sent by then, in phase 1 or the SimPy run)."""
+        """The indices in :attr:`ground` of the surveys node index ``index`` (0-based) sent (grouped on the first
+        call after a survey was added)."""
         if self._ground_by_node is None:
             self._ground_by_node = {}
             for i, g in enumerate(self.ground):

@@ -40,8 +40,8 @@ from nodesim.chain import bit_errors
 from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node, time_windows
 from nodesim.chain.compiled import tick_plan as tp
+from nodesim.chain.compiled.phase_one import PhaseOne, ground_surveys
 from nodesim.chain.compiled.references import above_nodes, asks, encoder_reads, encoder_words, float_references
-from nodesim.chain.packets import SurveyPacket
 from nodesim.chain.mac import LinkStats
 from nodesim.errors import NodesimError
 from nodesim.scenario.schema import Scenario
@@ -193,10 +193,13 @@ def _survey_plan(net, plan: np.ndarray) -> tuple:
     return [(x[0], x[1], x[3]) for x in rows], first, last, ticks, tops
 
 
-def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray, survey_plan: tuple):
+def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray, survey_plan: tuple,
+             beside: PhaseOne | None = None):
     """Phase 1 (:mod:`.events`): the events chunk by chunk, each chunk over ranges of realizations on threads
     (:mod:`nodesim.threads`) while the next chunk is made on another; started again with more inbox slots until
-    every range completes.  (events, :class:`.events.Records`, radio, stats, (survey arrival (R, S), event (S,)))."""
+    every range completes.  (events, :class:`.events.Records`, radio, stats, (survey arrival (R, S), event (S,))).
+    ``beside`` (phase 1 beside phase 2, :mod:`.phase_one`) is told, once each chunk's records are in place, up to
+    which time they are final (not after a chunk that found an inbox full)."""
     N, R = net.n_nodes, net.R
     c, m = net.scenario.chain, net.scenario.mac
     Kmax = int(K.max())
@@ -238,6 +241,8 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         recs = [(np.zeros((R, size), bool), np.zeros((R, size), np.int8), np.zeros((R, size), np.int32))
                 for _ in range(2)]  # a chunk's records by event, two: one filled while the other is put in place
 
+        full = [False]  # a chunk found an inbox full: its records and those after it are not final
+
         def run(chunk: tuple, e_first: int, slot: int) -> int:  # one chunk in every realization, ranges on threads
             def lanes(r0: int, r1: int) -> int:
                 scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
@@ -245,12 +250,15 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
                                      links.margin, draws, radio, stats, mac, bits, scratch, inbox, last_seq, streak,
                                      out, recs[slot], cursor, r0, r1)
             status = max(threads.map_chunks(lanes, R))
+            full[0] = full[0] or status != ev.DONE
             if (e_first + chunk[0].size) // DROP_EVERY_EVENTS > e_first // DROP_EVERY_EVENTS:
                 spill.drop(net.scratch)  # the pages of the tables read and written so far leave the process
             return status
 
         def scatter(chunk: tuple, slot: int) -> None:
             ev.scatter_records(chunk, recs[slot], out.applied, out.src_offset, out.src_tick)
+            if beside is not None and not full[0]:  # every event before this chunk's last one is done
+                beside.publish(out, surveys[4:6], float(chunk[2][-1]))
 
         events, status = _each_chunk(T, K, dead_at, plan, net.tick_clock(), size, run, scatter)
         if status == ev.DONE:
@@ -473,21 +481,24 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     spill.drop(net.scratch)  # the whole-run tables' pages read so far leave memory (where they are on disk)
     if on_node is None:  # every record is kept anyway: every node's readings at once, on threads, as before
         net.attach_signals(range(net.n_nodes))
-    net.events, out, radio, stats, arrivals = _resolve(net, links, T, K, plan, survey_plan)
-    spill.drop(net.scratch)
-    net.engine = "compiled"
-    links.store(stats)
-    for i, node in enumerate(net.nodes):
-        node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
-    net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()
-    _ground_surveys(net, survey_plan[0], arrivals)
+    windowed = time_windows.windowed(net.scenario, on_node)
+    resolve = lambda beside: _resolve(net, links, T, K, plan, survey_plan, beside)  # noqa: E731
+    if windowed and threads.thread_count() > 1:  # phase 1 on its own thread, phase 2 a window behind it
+        phase1 = PhaseOne(resolve)
+    else:
+        phase1 = PhaseOne(done=resolve(None))
+        ground_surveys(net, survey_plan[0], phase1.result()[4])
+        if not windowed:
+            _phase_one_done(net, links, phase1.result())
     if progress is not None:
-        progress(0.5)  # phase 1 done; phase 2 reports node by node
+        progress(0.5)  # phase 1 done (or under way beside phase 2); phase 2 reports node by node
+    if windowed:  # phase 2 window by window of time (issue 20)
+        surveys, summaries = time_windows.run_windows(net, phase1, plan, K, on_node, survey_plan[0], progress)
+        _phase_one_done(net, links, phase1.result())
+        return net.result(runs=(), surveys=surveys, summaries=summaries)
+    out = phase1.result()[1]
     N = net.n_nodes
     surveys, summaries = list(net.ground), []
-    if time_windows.windowed(net.scenario, on_node):  # phase 2 window by window of time (issue 20)
-        summaries = time_windows.run_windows(net, out, plan, K, on_node, surveys, progress)
-        return net.result(runs=(), surveys=surveys, summaries=summaries)
     streams = _NodeOutputs(net, on_node, surveys) if on_node is not None else None
     try:
         for n in range(N):
@@ -563,11 +574,12 @@ class _NodeOutputs:
             self.pool.shutdown(wait=True)
 
 
-def _ground_surveys(net, senders: list, arrivals: tuple) -> None:
-    """The network's surveys (:meth:`Network.received_survey`) from phase 1's (arrival (R, S), event (S,)), in send
-    order (the order of their events)."""
-    arrival, event = arrivals
-    for s in np.argsort(event, kind="stable"):
-        n, k, stop = senders[s]
-        packet = SurveyPacket(stop.station, stop.md_m, n + 1, k, float(net.nodes[n].t_s[k]), np.ones(net.R, bool))
-        net.received_survey(packet, arrival[:, s].copy(), [])  # no bit errors on these hops (``unsupported``)
+def _phase_one_done(net, links: _Links, result: tuple) -> None:
+    """The network's event count, link statistics and radio times from phase 1's ``result`` (:func:`_resolve`)."""
+    net.events, _, radio, stats, _ = result
+    spill.drop(net.scratch)
+    net.engine = "compiled"
+    links.store(stats)
+    for i, node in enumerate(net.nodes):
+        node.radio.tx_s, node.radio.rx_s = radio[4][:, i].copy(), radio[5][:, i].copy()
+    net.surface.tx_s, net.surface.rx_s = radio[4][:, -1].copy(), radio[5][:, -1].copy()

@@ -17,7 +17,10 @@ steps over a window of ticks, each carrying its state from the node's window bef
   (:meth:`nodesim.chain.streaming.NodeStream.node_windows`: timeseries rows, the metrics' sums, survey rows).
 The numbers are those of the node-by-node run, bit for bit, except the RMS errors and the mean update age, whose
 window sums are added (:class:`nodesim.chain.metrics.NodeMetricSums`, ~1e-15 relative); the timeseries table's rows
-come window by window (node, then time, inside a window).  Covered: the fixed-point 2-state firmware without
+come window by window (node, then time, inside a window).  A window starts once phase 1's records of its ticks are
+final: with more than one thread, phase 1 runs on a thread of its own beside the windows (:mod:`.phase_one`; the
+drilling day's second half of phase 1 beside its first window: 67.6 / 71.0 s against 72.1 / 74.4 s for phase 1
+first, whole processes interleaved, 2026-12-06).  Covered: the fixed-point 2-state firmware without
 ``mac.bit_errors`` (:func:`windowed`), the drilling day's; other runs go node by node.
 """
 
@@ -40,6 +43,7 @@ from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import events as ev
 from nodesim.chain.compiled import filters, frame_pass, six_state_fixed_node
 from nodesim.chain.compiled import tick_plan as tp
+from nodesim.chain.compiled.phase_one import PhaseOne, ground_surveys
 from nodesim.chain.compiled.references import asks, encoder_reads, encoder_words
 from nodesim.chain.compiled.surveys import fixed_survey_words
 from nodesim.chain.estimator import alignment_ticks, alignment_window_s
@@ -158,32 +162,35 @@ def _first_taken(src_offset, src_tick, s, k_first, k_end) -> int:
     return best
 
 
-def run_windows(net, out: ev.Records, plan, K: np.ndarray, stream, surveys: list,
-                progress: Callable[[float], None] | None) -> tuple:
-    """Phase 2 window by window (module docstring); ``stream`` the run's :class:`NodeStream`, ``surveys`` the run's
-    list of ground surveys (each set as its frame is made).  Returns the nodes' summaries in node order."""
+def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: list,
+                progress: Callable[[float], None] | None) -> tuple[list, tuple]:
+    """Phase 2 window by window (module docstring), each window once ``phase1`` has made its records final (phase 1
+    may still be running: :mod:`.phase_one`); ``stream`` the run's :class:`NodeStream`, ``senders`` the surveys
+    phase 1 sends (:func:`.phase_one.ground_surveys`).  Returns (the ground surveys, each with its frame, the nodes'
+    summaries in node order)."""
     N, R = net.n_nodes, net.R
     s = net.scenario
     nodes: list[_Node | None] = [None] * N
     total, done, steps_done = float(K.sum()), 0, 0
     keep_s = s.chain.max_update_age_s + 1.0  # a frame older than this at a window's end is never taken after it
     outputs, sensors = _Outputs(), _Sensors(net)
+    surveys = list(net.ground)  # each set to its frame as it is made; grows window by window
     try:
-        steps = _steps(net, sensors)
+        steps = _steps(net, sensors, phase1, senders, surveys)
         ahead: list = []  # the next steps, their sensors under way on the worker
         while True:
             while len(ahead) <= SENSORS_AHEAD:
                 step = next(steps, None)
                 if step is None:
                     break
-                t1, n, k0, k1 = step
+                t1, n, k0, k1, _ = step
                 if nodes[n] is None:
                     nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span,
                                      stream.node_windows(net.nodes[n].node_id, net.nodes[n].t_s, R))
                 ahead.append((step, sensors.submit(nodes[n], k0, k1)))
             if not ahead:
                 break
-            (t1, n, k0, k1), sensed = ahead.pop(0)
+            (t1, n, k0, k1, out), sensed = ahead.pop(0)
             run, survey_from, mine = _window(net, nodes, n, k0, k1, sensed(), out, plan)
             outputs.submit(_outputs_of, net, nodes[n], run, survey_from, k0, mine, surveys)
             if n >= 2 and nodes[n - 2] is not None:  # its receivers (n - 1, n) have run this window
@@ -202,12 +209,13 @@ def run_windows(net, out: ev.Records, plan, K: np.ndarray, stream, surveys: list
     finally:
         outputs.shutdown()
         sensors.shutdown()
+    out = phase1.result()[1]
     summaries = []
     for n in range(N):
         x = nodes[n]
         summaries.append(x.stream.finish(out.stale[:, n].copy(), out.duplicate[:, n].copy(), x.fw.overflow_counts,
                                          x.clipped, getattr(x.fw, "singular_ticks", None)))
-    return tuple(summaries)
+    return surveys, tuple(summaries)
 
 
 DROP_EVERY_STEPS = 8
@@ -223,9 +231,11 @@ SENSOR_THREADS = 1
 taken).  Two: the drilling day in four windows 83.6 / 84.6 s against 73.3-82.8 s with one (2026-12-06)."""
 
 
-def _steps(net, sensors: "_Sensors"):
-    """(window end, node index, k0, k1) of every (window, node) step with ticks, in run order; each window's shared
-    truth is queued on the sensors' worker before its first step."""
+def _steps(net, sensors: "_Sensors", phase1: PhaseOne, senders: list, surveys: list):
+    """(window end, node index, k0, k1, phase 1's records) of every (window, node) step with ticks, in run order;
+    each window's shared truth is queued on the sensors' worker before its first step, and its steps come once
+    phase 1's records of the window are final (with the surveys sent in it added to ``net.ground`` and
+    ``surveys``)."""
     duration = net.scenario.simulation.duration_s
     W = window_s(duration)
     edges = [i * W for i in range(max(1, math.ceil(duration / W)) + 1)]
@@ -239,9 +249,12 @@ def _steps(net, sensors: "_Sensors"):
         spill.drop(net.scratch)  # the tick table's pages the bisections read (none where the clocks are affine)
         bounds = [(int(k0), int(k1), float(a), float(z)) for (k0, k1), (a, z) in zip(b, times)]
         sensors.next_window(bounds)
+        out, arrivals = phase1.wait(t1)
+        ground_surveys(net, senders, arrivals, t1)
+        surveys.extend(net.ground[len(surveys):])
         for n, (k0, k1, _, _) in enumerate(bounds):
             if k0 < k1:
-                yield t1, n, k0, k1
+                yield t1, n, k0, k1, out
 
 
 @njit(cache=True, nogil=True)

@@ -172,3 +172,57 @@ def test_a_run_is_cut_into_windows_of_an_hour_at_most_two():
     assert tw.window_s(600.0) == 3600.0  # one window
     assert tw.window_s(7200.0) == 3600.0  # two hours: two windows of one
     assert tw.window_s(86400.0) == 43200.0  # a day: two of twelve hours
+
+
+def test_phase_one_beside_the_windows_starts_again_after_they_began(tmp_path, monkeypatch):
+    """Phase 1 on its own thread (nodesim.chain.compiled.phase_one) starts again when an inbox is full; here a full
+    inbox is made up in the chunk of events that crosses into the fourth window, once phase 2 has been given the
+    first two windows' records: the steps phase 2 was given keep the records of the attempt that made them final
+    (the same events before the overflow), the later ones wait for the new attempt's (the chunk that overflowed
+    does not make the third window's final)."""
+    import threading
+
+    from nodesim.chain.compiled import events as ev, phase_one
+
+    scenario = load_scenario(FIELD)[0].with_overrides(**{"chain.nodes": 4, "filter.implementation": "fixed"})
+    monkeypatch.setenv("NODESIM_THREADS", "1")  # phase 1 before phase 2
+    ref = _run(tmp_path, "ref", scenario, monkeypatch, 113.0)
+    monkeypatch.setenv("NODESIM_THREADS", "2")
+    monkeypatch.setattr(ev, "CHUNK_EVENTS", 64)  # many chunks: phase 1 tells its progress often
+    given, made_up = threading.Event(), []
+    run_events, wait = ev.run_events, phase_one.PhaseOne.wait
+
+    def spy_wait(self, t_s):
+        tables = wait(self, t_s)
+        if t_s >= 2 * 113.0:
+            given.set()
+        return tables
+
+    def full_inbox_once(N, chunk, *args):
+        if not made_up and chunk[2][0] < 3 * 113.0 <= chunk[2][-1]:
+            assert given.wait(60.0), "phase 2 was not given the first windows beside phase 1"
+            made_up.append(chunk[2][0])
+            return ev.INBOX_FULL
+        return run_events(N, chunk, *args)
+
+    monkeypatch.setattr(phase_one.PhaseOne, "wait", spy_wait)
+    monkeypatch.setattr(ev, "run_events", full_inbox_once)
+    got = _run(tmp_path, "got", scenario, monkeypatch, 113.0)
+    assert made_up
+    _same_bits(ref, got)
+
+
+def test_phase_one_on_its_thread_raises_its_error_where_it_is_waited_for():
+    from nodesim.chain.compiled.phase_one import PhaseOne
+
+    def fails(progress):
+        progress.publish(None, (), 10.0)
+        raise ValueError("phase 1 broke")
+
+    p = PhaseOne(fails)
+    with pytest.raises(ValueError, match="phase 1 broke"):
+        p.wait(20.0)
+    with pytest.raises(ValueError, match="phase 1 broke"):
+        p.result()
+    done = PhaseOne(done=(5, "records", None, None, "arrivals"))
+    assert done.wait(math.inf) == ("records", "arrivals") and done.result()[0] == 5
