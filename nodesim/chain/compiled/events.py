@@ -61,12 +61,15 @@ class Records(NamedTuple):
     ask_first: np.ndarray  # (N,) int64: node n's first request in ``ask_*`` (its requests follow in tick order)
 
 
-CHUNK_EVENTS = 1 << 20
+CHUNK_EVENTS = 1 << 18
 """Events per chunk (a chunk is run in every realization before the next is made): two chunks' buffers, 23 bytes an
-event (its node, tick, time and plan code; its records), are phase 1's own memory, ~46 MB at this size.  Smaller
+event (its node, tick, time and plan code; its records), are phase 1's own memory, ~12 MB at this size.  Smaller
 chunks cost nothing once the scratch tables' pages are dropped every :data:`.engine.DROP_EVERY_EVENTS` instead of
 after every chunk (the day's phase 1: 7.7 s with 1 M-event chunks against 7.2-8.4 s with 4 M, and 9.0-9.2 s with
-1 M dropping after each; 2026-12-05, one run each)."""
+1 M dropping after each; 2026-12-05, one run each).  2^18, not 2^20, since phase 1 runs beside phase 2's windows
+(:mod:`.phase_one`), its memory on top of theirs: the drilling day's first 2 h (two windows) peaked at 534 MB with
+1 M-event chunks against 496 MB for its first hour (one window, phase 1 first), and at 498-499 MB against 482 MB with
+256 k (whole processes' max RSS, 2026-12-06)."""
 
 
 def running_ticks(codes: np.ndarray, t_s: np.ndarray, dead_at_s: float) -> np.ndarray:
