@@ -244,6 +244,8 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
         full = [False]  # a chunk found an inbox full: its records and those after it are not final
 
         def run(chunk: tuple, e_first: int, slot: int) -> int:  # one chunk in every realization, ranges on threads
+            if beside is not None:
+                beside.check()  # phase 2 failed: stop here
             def lanes(r0: int, r1: int) -> int:
                 scratch = (np.zeros(fr.ESTIMATE_BYTES, np.uint8), np.zeros(len(fr.FIELDS[fr.ESTIMATE]), np.int64))
                 return ev.run_events(N, chunk, e_first, dead_at, surveys, nodes_cfg, fallback, links.chan,
@@ -493,7 +495,11 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
     if progress is not None:
         progress(0.5)  # phase 1 done (or under way beside phase 2); phase 2 reports node by node
     if windowed:  # phase 2 window by window of time (issue 20)
-        surveys, summaries = time_windows.run_windows(net, phase1, plan, K, on_node, survey_plan[0], progress)
+        try:
+            surveys, summaries = time_windows.run_windows(net, phase1, plan, K, on_node, survey_plan[0], progress)
+        except BaseException:
+            phase1.cancel()  # (phase 1 beside it stops at its next chunk)
+            raise
         _phase_one_done(net, links, phase1.result())
         return net.result(runs=(), surveys=surveys, summaries=summaries)
     out = phase1.result()[1]

@@ -27,6 +27,10 @@ import numpy as np
 from nodesim.chain.packets import SurveyPacket
 
 
+class Cancelled(Exception):
+    """Phase 1 was stopped by :meth:`PhaseOne.cancel`."""
+
+
 class PhaseOne:
     """Phase 1 run by ``resolve(progress)`` (:func:`.engine._resolve` with this object as its ``progress``) on a
     thread of its own, or given already run (``done``: its result)."""
@@ -36,6 +40,7 @@ class PhaseOne:
         self._ready_s = -math.inf  # the records of the ticks before this time are final
         self._tables: tuple | None = None  # (records, survey arrivals) of the attempt that got there
         self._result, self._error = done, None
+        self._cancelled = False
         self._thread = None
         if done is not None:
             self._ready_s, self._tables = math.inf, (done[1], done[4])
@@ -60,6 +65,17 @@ class PhaseOne:
         with self._cond:
             self._ready_s, self._tables = t_s, (records, arrivals)
             self._cond.notify_all()
+
+    def cancel(self) -> None:
+        """Phase 2 failed (or was interrupted): phase 1 stops at its next chunk (:meth:`check`) instead of running on
+        in the background; :meth:`result` then raises."""
+        with self._cond:
+            self._cancelled = True
+
+    def check(self) -> None:
+        """Raise :class:`Cancelled` in phase 1's thread once :meth:`cancel` was called (``_resolve``, every chunk)."""
+        if self._cancelled:
+            raise Cancelled("phase 1 stopped: phase 2 failed")
 
     def wait(self, t_s: float) -> tuple:
         """(records, (survey arrival, event)) once the records of every tick before ``t_s`` are final in them (``t_s``

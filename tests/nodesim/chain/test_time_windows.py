@@ -5,6 +5,7 @@ its tables the same rows (window by window, so compared sorted by node and time)
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -226,3 +227,43 @@ def test_phase_one_on_its_thread_raises_its_error_where_it_is_waited_for():
         p.result()
     done = PhaseOne(done=(5, "records", None, None, "arrivals"))
     assert done.wait(math.inf) == ("records", "arrivals") and done.result()[0] == 5
+
+
+def test_phase_one_on_its_thread_stops_when_phase_two_fails(tmp_path, monkeypatch):
+    """A window that raises stops phase 1 beside it at its next chunk (no work left running in the background) and
+    the run raises the window's error."""
+    from nodesim.chain.compiled import events as ev, phase_one
+
+    scenario = load_scenario(FIELD)[0].with_overrides(**{"chain.nodes": 4, "filter.implementation": "fixed"})
+    monkeypatch.setenv("NODESIM_THREADS", "2")
+    monkeypatch.setattr(ev, "CHUNK_EVENTS", 64)
+    made: list = []
+    init = phase_one.PhaseOne.__init__
+
+    def keep(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        made.append(self)
+
+    def broken(*args):
+        raise RuntimeError("window broke")
+
+    run_events = ev.run_events
+
+    waited: list = []
+
+    def slow(N, chunk, *args):  # phase 1 waits once past the third window's start until phase 2 has given up
+        if chunk[2][0] > 3 * 113.0 and not waited:
+            waited.append(1)
+            deadline = time.monotonic() + 20.0
+            while not made[0]._cancelled and time.monotonic() < deadline:
+                time.sleep(0.01)
+        return run_events(N, chunk, *args)
+
+    monkeypatch.setattr(phase_one.PhaseOne, "__init__", keep)
+    monkeypatch.setattr(tw, "_window", broken)
+    monkeypatch.setattr(ev, "run_events", slow)
+    with pytest.raises(RuntimeError, match="window broke"):
+        _run(tmp_path, "broken", scenario, monkeypatch, 113.0)
+    assert len(made) == 1
+    with pytest.raises(phase_one.Cancelled):
+        made[0].result()
