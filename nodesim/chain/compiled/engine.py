@@ -489,8 +489,8 @@ def simulate_compiled(net, progress: Callable[[float], None] | None = None, on_n
         phase1 = PhaseOne(resolve)
     else:
         phase1 = PhaseOne(done=resolve(None))
-        ground_surveys(net, survey_plan[0], phase1.result()[4])
-        if not windowed:
+        if not windowed:  # (the windows add their surveys as they go, phase 1 first or beside them)
+            ground_surveys(net, survey_plan[0], phase1.result()[4])
             _phase_one_done(net, links, phase1.result())
     if progress is not None:
         progress(0.5)  # phase 1 done (or under way beside phase 2); phase 2 reports node by node

@@ -32,8 +32,8 @@ class Cancelled(Exception):
 
 
 class PhaseOne:
-    """Phase 1 run by ``resolve(progress)`` (:func:`.engine._resolve` with this object as its ``progress``) on a
-    thread of its own, or given already run (``done``: its result)."""
+    """Phase 1 run by ``resolve(beside)`` (:func:`.engine._resolve` with this object as its ``beside``) on a thread
+    of its own, or given already run (``done``: its result)."""
 
     def __init__(self, resolve: Callable | None = None, done: tuple | None = None):
         self._cond = threading.Condition()
