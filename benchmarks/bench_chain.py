@@ -39,7 +39,7 @@ import numpy as np
 import simpy
 
 from nodesim import threads
-from nodesim.bench import best_time_s, chain_batched_vs_loop
+from nodesim.bench import best_time_s, best_times_s, chain_batched_vs_loop
 from nodesim.scenario.schema import load_scenario
 
 R = 8
@@ -194,21 +194,24 @@ def _batched_vs_one_by_one(base, repeat: int, one_thread: bool = True, sample: i
     time on one thread and the one-by-one time on one thread (NaN unless ``one_thread``)).  The one-by-one side
     runs ``sample`` single runs (first_realization = 0 .. sample - 1), scaled by MC_R / ``sample`` (1: all run).
     Each is timed after a warm-up call of its own kind (what timeit does), best of ``repeat`` (the same for every
-    side): the first batched call in a process also pays the first touch of its ~0.5 GB of fresh arrays, kept
-    apart."""
+    side), the two sides' calls interleaved (:func:`nodesim.bench.best_times_s`: each side sees the same minutes of
+    a host whose speed drifts): the first batched call in a process also pays the first touch of its ~0.5 GB of
+    fresh arrays, kept apart."""
     from nodesim.chain.network import simulate_chain
 
     singles = [base.with_overrides(**{"simulation.first_realization": r}) for r in range(sample)]
-    simulate_chain(singles[0])  # warm (the compiled engine's first call loads its code)
-    t_one = best_time_s(lambda: [simulate_chain(s) for s in singles], repeat=repeat) / sample
     batched = base.with_overrides(**{"simulation.realizations": MC_R})
+    simulate_chain(singles[0])  # warm (the compiled engine's first call loads its code)
     t_first = best_time_s(lambda: simulate_chain(batched), repeat=1)
-    t_batch = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
+    t_one, t_batch = best_times_s([lambda: [simulate_chain(s) for s in singles], lambda: simulate_chain(batched)],
+                                  repeat=repeat)
+    t_one /= sample
     t_batch_1 = t_one_1 = float("nan")
     if one_thread:  # both sides on one thread (a single-realization run puts its nodes on every CPU otherwise)
         with threads.limited(1):
-            t_batch_1 = best_time_s(lambda: simulate_chain(batched), repeat=repeat)
-            t_one_1 = best_time_s(lambda: [simulate_chain(s) for s in singles], repeat=repeat) / sample
+            t_one_1, t_batch_1 = best_times_s([lambda: [simulate_chain(s) for s in singles],
+                                               lambda: simulate_chain(batched)], repeat=repeat)
+            t_one_1 /= sample
     return t_one * MC_R, t_batch, t_one, t_first, t_batch_1, t_one_1 * MC_R
 
 

@@ -54,6 +54,20 @@ def best_time_s(fn: Callable[[], object], repeat: int = 5, number: int = 1) -> f
     return best
 
 
+def best_times_s(fns: list[Callable[[], object]], repeat: int = 5) -> list[float]:
+    """Best-of-``repeat`` wall time of each of ``fns``, their calls interleaved (fns[0], fns[1], ..., then again):
+    every side is timed over the same stretch of the run, so that a host whose speed drifts over minutes (a shared
+    VM: the same call here varies up to 1.6x from one minute to the next) gives each side the same conditions,
+    rather than one side a fast minute and the other a slow one."""
+    best = [float("inf")] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            fn()
+            best[i] = min(best[i], time.perf_counter() - t0)
+    return best
+
+
 def chain_batched_vs_loop(base, realizations: int, prefix: str, repeat_loop: int = 2, repeat_batch: int = 3) -> dict:
     """Time ``realizations`` single-realization chain runs of scenario ``base`` (seeds base.seed + i) against
     one run with that many realizations: ``<prefix>_batched_speedup_vs_loop`` plus both raw times."""

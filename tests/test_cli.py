@@ -107,6 +107,26 @@ def test_bench_json_contract(tmp_path, capsys):
     assert json.loads(out_file.read_text()) == figures
 
 
+def test_best_times_interleave_the_sides_and_keep_each_ones_best(monkeypatch):
+    """best_times_s calls its functions in turn, repeat rounds, and returns each one's fastest call: a host that is
+    slow for a while slows every side's calls alike (a fake clock: each call takes the time its round says)."""
+    import nodesim.bench as bench
+
+    calls, now = [], [0.0]
+    round_s = {0: 5.0, 1: 1.0, 2: 3.0}  # the host's speed by round: round 1 is fast
+
+    def side(name: str, factor: float):
+        def fn():
+            calls.append(name)
+            now[0] += factor * round_s[sum(c == "a" for c in calls) - 1]
+        return fn
+
+    monkeypatch.setattr(bench.time, "perf_counter", lambda: now[0])
+    best = bench.best_times_s([side("a", 1.0), side("b", 10.0)], repeat=3)
+    assert calls == ["a", "b"] * 3
+    assert best == [1.0, 10.0]
+
+
 def test_bench_missing_folder_is_a_clear_error(tmp_path, capsys):
     assert main(["bench", "--dir", str(tmp_path / "none")]) == 2
     assert "benchmark folder" in capsys.readouterr().err
