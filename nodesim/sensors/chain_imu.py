@@ -309,8 +309,9 @@ def _fill_sample_counts(first, n, j_start, n_f, n_after_f) -> None:
 
 def _sample_counts(first: np.ndarray, n: np.ndarray, j_start: int) -> tuple[np.ndarray, np.ndarray]:
     """(n_k, n_after,k) as floats (:func:`_tick_sums`): each tick's samples and those of them at or after sample
-    ``j_start`` (the residual bias's start), clip(first_k + n_k - j_start, 0, n_k), in one compiled pass (numpy's
-    clip and two conversions: ~0.3 ms a drilling day's node-window, 2026-12-06)."""
+    ``j_start`` (the residual bias's start), clip(first_k + n_k - j_start, 0, n_k), in one compiled pass instead of numpy's
+    clip and two conversions (~0.2 ms a node's 4-hour window of ~27 k ticks in the drilling day's first 8 h, line by
+    line, 2026-12-06)."""
     n_f, n_after_f = np.empty(n.size), np.empty(n.size)
     _fill_sample_counts(first, n, np.int64(j_start), n_f, n_after_f)
     return n_f, n_after_f
