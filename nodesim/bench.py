@@ -45,26 +45,21 @@ def discover(bench_dir: Path) -> list[tuple[str, Callable[[], dict]]]:
 
 def best_time_s(fn: Callable[[], object], repeat: int = 5, number: int = 1) -> float:
     """Best-of-``repeat`` wall time of ``number`` calls, divided by ``number`` (timeit's recommendation)."""
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        for _ in range(number):
-            fn()
-        best = min(best, (time.perf_counter() - t0) / number)
-    return best
+    return best_times_s([fn], repeat, number)[0]
 
 
-def best_times_s(fns: list[Callable[[], object]], repeat: int = 5) -> list[float]:
-    """Best-of-``repeat`` wall time of each of ``fns``, their calls interleaved (fns[0], fns[1], ..., then again):
-    every side is timed over the same stretch of the run, so that a host whose speed drifts over minutes (a shared
-    VM: the same call here varies up to 1.6x from one minute to the next) gives each side the same conditions,
-    rather than one side a fast minute and the other a slow one."""
+def best_times_s(fns: list[Callable[[], object]], repeat: int = 5, number: int = 1) -> list[float]:
+    """Best-of-``repeat`` wall time of ``number`` calls of each of ``fns``, divided by ``number``, their rounds
+    interleaved (fns[0], fns[1], ..., then again): every side is timed over the same stretch of the run, so that a
+    host whose speed drifts over minutes (a shared VM: the same call here varies up to 1.6x from one minute to the
+    next) gives each side the same conditions, rather than one side a fast minute and the other a slow one."""
     best = [float("inf")] * len(fns)
     for _ in range(repeat):
         for i, fn in enumerate(fns):
             t0 = time.perf_counter()
-            fn()
-            best[i] = min(best[i], time.perf_counter() - t0)
+            for _ in range(number):
+                fn()
+            best[i] = min(best[i], (time.perf_counter() - t0) / number)
     return best
 
 
