@@ -137,30 +137,32 @@ class TimeseriesFile:
         if not self._blocks:
             return
         blocks, self._blocks, self._buffered = self._blocks, [], 0
-        block = blocks[0] if len(blocks) == 1 else {k: np.concatenate([b[k] for b in blocks])
-                                                      for k in TIMESERIES_COLUMNS}
         if self._queue is not None:
-            self._queue.put(block)
+            self._queue.put(blocks)
         else:
-            self._write_parquet(block)
+            self._write_parquet(blocks)
 
-    def _write_parquet(self, block: dict[str, np.ndarray]) -> None:
+    def _write_parquet(self, blocks: list[dict[str, np.ndarray]]) -> None:
+        """One row group of ``blocks``: a table whose columns are the blocks' arrays as chunks (no copy: the
+        writer reads chunk after chunk; the same file, byte for byte, as from the blocks concatenated, which
+        copied every value once more)."""
+        import pyarrow as pa
         import pyarrow.parquet as pq
 
-        table = timeseries_table(block)
+        table = pa.concat_tables([timeseries_table(block) for block in blocks])
         if self._writer is None:
             self._writer = pq.ParquetWriter(self._tmp, table.schema, **PARQUET_OPTIONS)
-        self._writer.write_table(table)
+        self._writer.write_table(table, row_group_size=max(1, table.num_rows))
         self._behind.advance()
 
     def _drain(self) -> None:
         while True:
-            block = self._queue.get()
-            if block is None:
+            blocks = self._queue.get()
+            if blocks is None:
                 return
             if self._error is None:
                 try:
-                    self._write_parquet(block)
+                    self._write_parquet(blocks)
                 except BaseException as err:  # noqa: BLE001 - raised in the caller's thread
                     self._error = err
 
@@ -181,7 +183,7 @@ class TimeseriesFile:
             self._join()
             self._raise()
             if self._writer is None:
-                self._write_parquet(empty_timeseries())
+                self._write_parquet([empty_timeseries()])
             self._writer.close()
         else:
             if self._csv is None:

@@ -18,6 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
+from nodesim.chain.compiled.angles import mod_two_pi
 from nodesim.units import DEG
 
 INT_COLUMNS = ("node", "running", "update")
@@ -28,9 +29,10 @@ FLOAT_COLUMNS = ("t_s", "update_age_s", "true_yaw_deg", "true_inclination_deg", 
 
 @njit(cache=True, _nrt=False, nogil=True, inline="always")
 def wrap_pi(a: float) -> float:
-    """:func:`nodesim.units.wrap_pi` of one float (numba's float remainder is numpy's: fmod, then the divisor's
-    sign; tests/nodesim/chain/test_timeseries_rows.py checks the bits)."""
-    wrapped = np.remainder(a + math.pi, 2.0 * math.pi) - math.pi
+    """:func:`nodesim.units.wrap_pi` of one float (:func:`~nodesim.chain.compiled.angles.mod_two_pi`: numpy's
+    remainder without its fmod call where the difference is within a turn, as it almost always is;
+    tests/nodesim/chain/test_timeseries_rows.py checks the bits)."""
+    wrapped = mod_two_pi(a + math.pi) - math.pi
     return math.pi if wrapped == -math.pi else wrapped
 
 
@@ -56,6 +58,12 @@ def _f64(x) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float64)
 
 
+def _flags(x) -> np.ndarray:
+    """A 0/1 record as the kernel reads it: bool as it is (no int64 copy; the kernel stores it as 0 or 1)."""
+    x = np.asarray(x)
+    return np.ascontiguousarray(x, dtype=np.bool_ if x.dtype == np.bool_ else np.int64)
+
+
 def rows(node, r: int = 0, step: int = 1, first_tick: int = 0) -> dict[str, np.ndarray]:
     """Realization ``r``'s rows of one node (:class:`~nodesim.chain.records.NodeRun`), every ``step``-th tick of
     the node's (tick 0, ``step``, ...), as columns (int64 and float64 rows of two blocks); ``first_tick``: the
@@ -65,8 +73,8 @@ def rows(node, r: int = 0, step: int = 1, first_tick: int = 0) -> dict[str, np.n
     start = -first_tick % step  # the window's first tick that is a multiple of step
     n = len(range(start, K, step))
     ints, floats = np.empty((len(INT_COLUMNS), n), np.int64), np.empty((len(FLOAT_COLUMNS), n))
-    fill_rows(node.node_id, start, step, _f64(node.t_s), np.ascontiguousarray(node.running, dtype=np.int64),
-              np.ascontiguousarray(node.update_mask[r], dtype=np.int64), _f64(node.update_age_s[r]),
+    fill_rows(node.node_id, start, step, _f64(node.t_s), _flags(node.running), _flags(node.update_mask[r]),
+              _f64(node.update_age_s[r]),
               _f64(node.true_yaw_rad), _f64(node.true_inclination_rad), _f64(node.true_azimuth_rad),
               _f64(node.yaw_est_rad[r]), _f64(node.yaw_var_rad2[r]), _f64(node.true_bias_rad_s[r]),
               _f64(node.bias_est_rad_s[r]), _f64(node.inclination_rad[r]), _f64(node.azimuth_rad[r]), ints, floats)
