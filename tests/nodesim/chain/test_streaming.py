@@ -132,6 +132,42 @@ def test_the_parquet_table_encodes_each_column_as_its_options_say(tmp_path):
 
 
 @pytest.mark.parametrize("threads", ["1", "2"])
+def test_blocks_gather_into_row_groups_with_the_bytes_of_their_concatenation(tmp_path, monkeypatch, threads):
+    """Blocks are written as chunks of one row group once ROW_GROUP_ROWS rows are buffered (no concatenation copy):
+    the row groups hold whole blocks, the values read back are the blocks', and the file is byte for byte the one
+    written from each row group's blocks concatenated."""
+    import pyarrow.parquet as pq
+    from nodesim.chain.run_tables import TIMESERIES_COLUMNS
+    from nodesim.chain.streaming import INTEGER_COLUMNS, PARQUET_OPTIONS, timeseries_table
+
+    monkeypatch.setenv("NODESIM_THREADS", threads)
+    monkeypatch.setattr(TimeseriesFile, "ROW_GROUP_ROWS", 1000)
+    rng = np.random.default_rng(7)
+    blocks = []
+    for n in (400, 700, 300, 900, 250):  # row groups: 400 + 700, 300 + 900, 250 (at close)
+        block = {k: rng.normal(size=n) for k in TIMESERIES_COLUMNS}
+        block.update(node=np.full(n, len(blocks)), running=rng.integers(0, 2, n), update=rng.integers(0, 2, n),
+                     update_age_s=rng.choice([np.nan, 0.004, 0.5], n), yaw_sigma_deg=rng.choice([0.1, 0.2], n))
+        blocks.append(block)
+    f = TimeseriesFile(tmp_path / "t.parquet", "parquet")
+    for block in blocks:
+        f.write(block)
+    f.close()
+    got = pq.ParquetFile(tmp_path / "t.parquet")
+    assert [got.metadata.row_group(i).num_rows for i in range(got.num_row_groups)] == [1100, 1200, 250]
+    table = got.read()
+    for k in TIMESERIES_COLUMNS:
+        want = np.concatenate([b[k] for b in blocks])
+        assert np.array_equal(table.column(k).to_numpy(), want, equal_nan=k not in INTEGER_COLUMNS), k
+    groups = [blocks[0:2], blocks[2:4], blocks[4:]]
+    joined = [timeseries_table({k: np.concatenate([b[k] for b in g]) for k in TIMESERIES_COLUMNS}) for g in groups]
+    with pq.ParquetWriter(tmp_path / "joined.parquet", joined[0].schema, **PARQUET_OPTIONS) as writer:
+        for t in joined:
+            writer.write_table(t)
+    assert (tmp_path / "t.parquet").read_bytes() == (tmp_path / "joined.parquet").read_bytes()
+
+
+@pytest.mark.parametrize("threads", ["1", "2"])
 def test_a_streamed_run_is_the_same_whatever_the_thread_count(monkeypatch, threads):
     """The sensors of the next nodes are computed on worker threads while phase 2 runs, the table is encoded on a
     writer thread: neither changes a bit (NODESIM_THREADS = 1 does everything in the calling thread)."""
