@@ -38,7 +38,8 @@ from firmware_model import node_firmware as nf
 from firmware_model import six_state_fixed as six_state
 from nodesim.chain import bit_errors
 from nodesim.chain import scratch as spill
-from nodesim.chain.compiled import filters, float_kernel, frame_pass, six_state_fixed_node, six_state_node, time_windows
+from nodesim.chain.compiled import (filters, firmware_constants, float_kernel, frame_pass, six_state_fixed_node,
+                                    six_state_node, time_windows)
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.phase_one import PhaseOne, ground_surveys
 from nodesim.chain.compiled.references import above_nodes, asks, encoder_reads, encoder_words, float_references
@@ -424,17 +425,16 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     six = six_state_fixed_node.build(fw)  # (is 6-state, its build, initial lane): the fixed 6-state node's tick
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
     k_first = n_static + 1  # the first tick that may take a reference or send a frame
+    firmware = firmware_constants.runner(fw.params, fw.fparams, R * sum(x.t_s.size for x in net.nodes))
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below
         if n > 0:
             frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, WHOLE_FRAMES, *rx, r0, r1)
-        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts,
-                                  sig.samples, t, codes, k_end, True,
-                                  node.applied, yaw_enc, enc_rate, back_us, offset, src_tick,
-                                  tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw,
-                                  bias_raw, node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *six,
-                                  six_state.new_work())
+        firmware(fw.states, fw.params, fw.fparams, counts, sig.gyro_counts, sig.accel_counts, sig.samples, t, codes,
+                 k_end, True, node.applied, yaw_enc, enc_rate, back_us, offset, src_tick,
+                 tuple(a.t_s for a in above), *rx, inp, res, node.yaw_raw, node.var_raw, rate_raw, bias_raw,
+                 node.yaw, node.var, node.bias, node.ref_yaw, node.ref_var, r0, r1, *six, six_state.new_work())
         return counts
 
     fw.counts += sum(threads.map_chunks(run, R))

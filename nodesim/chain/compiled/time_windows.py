@@ -10,7 +10,8 @@ steps over a window of ticks, each carrying its state from the node's window bef
 * its count sums (:class:`nodesim.sensors.chain_imu.NodeImuStream`: the streams' states, the Gauss-Markov bias) from
   a shared truth over the window's samples only (:class:`nodesim.sensors.sample_truth.SampleTruth`, continuing the
   last window's prefix sums: the same sums);
-* its firmware (:func:`.filters.run_node_firmware` from the lanes where the last window left them) on phase 1's
+* its firmware (:func:`.filters.run_node_firmware`, compiled for the build's words in a large run:
+  :mod:`.firmware_constants`, from the lanes where the last window left them) on phase 1's
   records of those ticks, with the estimate frames of the node above and two above (:mod:`.frame_pass`), which keep
   of their last window only the frames a later tick takes (:meth:`_Node.trim`);
 * its survey words (:func:`firmware_model.node_survey.fixed_surveys_window`), its outputs
@@ -41,7 +42,7 @@ from firmware_model.node_survey import MA_RING
 from nodesim import threads
 from nodesim.chain import scratch as spill
 from nodesim.chain.compiled import events as ev
-from nodesim.chain.compiled import filters, frame_pass, six_state_fixed_node
+from nodesim.chain.compiled import firmware_constants, frame_pass, six_state_fixed_node
 from nodesim.chain.compiled import tick_plan as tp
 from nodesim.chain.compiled.phase_one import PhaseOne, ground_surveys
 from nodesim.chain.compiled.references import asks, encoder_reads, encoder_words
@@ -107,7 +108,7 @@ class _Span:
 class _Node:
     """What node index ``n`` carries from window to window (module docstring)."""
 
-    def __init__(self, net, n: int, plan, imu: ChainImu, span: _Span | None, stream):
+    def __init__(self, net, n: int, plan, imu: ChainImu, span: _Span | None, stream, node_ticks: int):
         s, node = net.scenario, net.nodes[n]
         t, R = node.t_s, net.R
         self.n, self.node = n, node
@@ -117,6 +118,7 @@ class _Node:
         self.accel_sigma = imu.accel_density_m_s2_per_sqrt_hz / np.sqrt(net.dt_s)  # as node_signals gives it
         self.imu = NodeImuStream(imu, net.motion, net._streams, n, t, net.dt_s, R, span)
         self.fw = firmware_lanes(s, R)
+        self.run_firmware = firmware_constants.runner(self.fw.params, self.fw.fparams, node_ticks)
         self.six = six_state_fixed_node.build(self.fw)
         self.work6 = six_state.new_work()
         self.asks = 0  # encoder requests in the windows before
@@ -186,7 +188,7 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
                 t1, n, k0, k1, _ = step
                 if nodes[n] is None:
                     nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span,
-                                     stream.node_windows(net.nodes[n].node_id, net.nodes[n].t_s, R))
+                                     stream.node_windows(net.nodes[n].node_id, net.nodes[n].t_s, R), int(total) * R)
                 ahead.append((step, sensors.submit(nodes[n], k0, k1)))
             if not ahead:
                 break
@@ -414,10 +416,10 @@ def _firmware(net, out: ev.Records, x: _Node, n: int, k0: int, k_end: int, t, co
         counts = np.zeros(len(fw.SITES), dtype=np.int64)
         if n > 0:
             frame_pass.receive_frames(offset, src_tick, k_first, k_end, up_frames, up_first, *rx, r0, r1)
-        filters.run_node_firmware(fw.states, fw.params, fw.fparams, counts, c.gyro_counts, c.accel_counts, c.samples,
-                                  t, codes, k_end, k0 == 0, applied, yaw_enc, enc_rate, back_us, offset, src_tick,
-                                  tuple(a.t_s for a in above), *rx, inp, res, yaw_raw, var_raw, rate_raw, bias_raw,
-                                  yaw, var, bias, ref_yaw, ref_var, r0, r1, *x.six, x.work6)
+        x.run_firmware(fw.states, fw.params, fw.fparams, counts, c.gyro_counts, c.accel_counts, c.samples,
+                       t, codes, k_end, k0 == 0, applied, yaw_enc, enc_rate, back_us, offset, src_tick,
+                       tuple(a.t_s for a in above), *rx, inp, res, yaw_raw, var_raw, rate_raw, bias_raw,
+                       yaw, var, bias, ref_yaw, ref_var, r0, r1, *x.six, x.work6)
         return counts
 
     fw.counts += sum(threads.map_chunks(run, R))

@@ -1,0 +1,53 @@
+"""The fixed-point firmware's phase 2 compiled for one firmware build: the build's words as constants.
+
+:func:`.filters.run_node_firmware` reads the build's formats and constants (``params``, ``fparams``: word lengths,
+fraction bits, saturation bounds, the encoder's and the filter's constant words) from two small arrays at every
+step of every tick.  :func:`firmware_for` gives the same function with the two arrays' values as compile-time
+constants (numba closure variables), so that LLVM folds the shifts, the saturation bounds and the divisions by
+constants: the same integer operations on the same words, so the same words and records
+(tests/nodesim/chain/test_firmware_constants.py).  The firmware's thread time on the drilling day's first 4 h
+(2026-12-06, whole runs, the rest of the engine as it is): 2.2-2.3 s against 2.6-3.1 s with the arrays, ~25 % less.
+
+The price is one compilation per build (~20-25 s; numba's cache on disk keeps it, keyed by the values, so a
+build's later runs load it), so a run takes it only from :data:`MIN_NODE_TICKS` node-ticks on (the drilling day:
+146 M), where it saves more than it costs even the first time on a slow machine (~5-8 s of CPU on the day).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from numba import njit
+
+from nodesim.chain.compiled import filters
+
+MIN_NODE_TICKS = 50_000_000
+"""Runs with at least this many node-ticks (times realizations) run the firmware compiled for their build."""
+
+
+def runner(params: np.ndarray, fparams: np.ndarray, node_ticks: int):
+    """:func:`.filters.run_node_firmware`, or for a run of ``node_ticks`` >= :data:`MIN_NODE_TICKS` the same
+    compiled for the build's words (:func:`firmware_for`): called with the same arguments, the same results."""
+    if node_ticks < MIN_NODE_TICKS:
+        return filters.run_node_firmware
+    return firmware_for(tuple(int(v) for v in params), tuple(int(v) for v in fparams))
+
+
+@functools.lru_cache(maxsize=4)
+def firmware_for(params: tuple[int, ...], fparams: tuple[int, ...]):
+    """:func:`.filters.run_node_firmware` with ``params`` and ``fparams`` as constants (its own ``params`` and
+    ``fparams`` arguments are ignored: they are the same words)."""
+    P, FP = params, fparams
+
+    @njit(cache=True, _nrt=False, nogil=True)
+    def run_node_firmware_for_build(states, params, fparams, counts, gyro_sums, accel_sums, n_samples, t, codes,
+                                    k_end, init, applied, enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick,
+                                    up_t, rx_yaw_raw, rx_var_raw, inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw,
+                                    var, bias, ref_yaw, ref_var, r_first, r_end, six, params6, lane0, work) -> None:
+        filters.run_node_firmware(states, P, FP, counts, gyro_sums, accel_sums, n_samples, t, codes, k_end, init,
+                                  applied, enc_yaw_raw, enc_rate_raw, enc_back_us, src_node, src_tick, up_t,
+                                  rx_yaw_raw, rx_var_raw, inp, out, yaw_raw, var_raw, rate_raw, bias_raw, yaw, var,
+                                  bias, ref_yaw, ref_var, r_first, r_end, six, params6, lane0, work)
+
+    return run_node_firmware_for_build
