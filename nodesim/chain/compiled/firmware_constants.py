@@ -5,12 +5,16 @@ fraction bits, saturation bounds, the encoder's and the filter's constant words)
 step of every tick.  :func:`firmware_for` gives the same function with the two arrays' values as compile-time
 constants (numba closure variables), so that LLVM folds the shifts, the saturation bounds and the divisions by
 constants: the same integer operations on the same words, so the same words and records
-(tests/nodesim/chain/test_firmware_constants.py).  The firmware's thread time on the drilling day's first 4 h
-(2026-12-06, whole runs, the rest of the engine as it is): 2.2-2.3 s against 2.6-3.1 s with the arrays, ~25 % less.
+(tests/nodesim/chain/test_firmware_constants.py; the drilling day's outputs are byte for byte those of the arrays).
+The windows' firmware step (``time_windows._firmware``: the firmware, its frames and encoder words) on the drilling
+day's first 4 h, thread time, three interleaved pairs of whole runs (2026-12-06, beside a test run): 2.84 / 3.23 /
+3.39 s against 3.98 / 4.10 / 4.67 s with the arrays, ~25 % less.
 
-The price is one compilation per build (~20-25 s; numba's cache on disk keeps it, keyed by the values, so a
-build's later runs load it), so a run takes it only from :data:`MIN_NODE_TICKS` node-ticks on (the drilling day:
-146 M), where it saves more than it costs even the first time on a slow machine (~5-8 s of CPU on the day).
+The price is one compilation per build: 2.8 s (2026-12-06: tests/nodesim/chain/test_firmware_constants.py took
+5.9 s against 3.1 s with it cached) when numba's cache already holds the firmware's functions for tuples, ~20 s
+on a checkout whose cache is empty.  numba's cache on disk keeps it, keyed by the values, so a build's later runs
+load it.  A run takes it only from :data:`MIN_NODE_TICKS` node-ticks on (the drilling day: 146 M), where the
+saving (~50 ns a node-tick) is larger than the compilation.
 """
 
 from __future__ import annotations
