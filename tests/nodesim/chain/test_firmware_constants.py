@@ -36,3 +36,26 @@ def test_the_build_is_compiled_in_only_for_a_large_run():
     large = firmware_constants.runner(params, fparams, firmware_constants.MIN_NODE_TICKS)
     assert large is firmware_constants.firmware_for(tuple(range(10)), tuple(range(50)))  # one per build (cached)
     assert large is not filters.run_node_firmware
+
+
+def test_the_cache_key_follows_the_firmware_sources_and_is_the_same_in_every_process():
+    """numba keys a cached function by its own file only: the stamp of the files compiled in is in the key, the
+    same in another process (no salted hash), and another when a firmware file changes."""
+    import os
+    import subprocess
+    import sys
+
+    import firmware_model
+
+    stamp = firmware_constants.source_stamp()
+    other = subprocess.run([sys.executable, "-c", "from nodesim.chain.compiled import firmware_constants as f; "
+                            "print(f.source_stamp())"], capture_output=True, text=True, check=True)
+    assert int(other.stdout) == stamp
+    path = Path(firmware_model.__file__).parent / "fixed_kernel.py"
+    before = path.stat()
+    try:
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns + 1_000_000_000))
+        assert firmware_constants.source_stamp() != stamp
+    finally:
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))  # numba's own cache stamps stay valid
+    assert firmware_constants.source_stamp() == stamp
