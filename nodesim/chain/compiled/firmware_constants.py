@@ -43,10 +43,12 @@ def source_stamp() -> int:
     return int.from_bytes(hashlib.sha256(text).digest()[:7], "little")  # the same in every process
 
 
-def runner(params: np.ndarray, fparams: np.ndarray, node_ticks: int):
-    """:func:`.filters.run_node_firmware`, or for a run of ``node_ticks`` >= :data:`MIN_NODE_TICKS` the same
-    compiled for the build's words (:func:`firmware_for`): called with the same arguments, the same results."""
-    if node_ticks < MIN_NODE_TICKS:
+def runner(params: np.ndarray, fparams: np.ndarray, node_ticks: int, six: bool):
+    """:func:`.filters.run_node_firmware`, or for the 2-state firmware (not ``six``) in a run of ``node_ticks`` >=
+    :data:`MIN_NODE_TICKS` the same compiled for the build's words (:func:`firmware_for`): called with the same
+    arguments, the same results.  The 6-state node keeps its arrays: its equality with the constants is not tested
+    (and its day is not the speed target)."""
+    if six or node_ticks < MIN_NODE_TICKS:
         return filters.run_node_firmware
     return firmware_for(tuple(int(v) for v in params), tuple(int(v) for v in fparams))
 

@@ -118,8 +118,8 @@ class _Node:
         self.accel_sigma = imu.accel_density_m_s2_per_sqrt_hz / np.sqrt(net.dt_s)  # as node_signals gives it
         self.imu = NodeImuStream(imu, net.motion, net._streams, n, t, net.dt_s, R, span)
         self.fw = firmware_lanes(s, R)
-        self.run_firmware = firmware_constants.runner(self.fw.params, self.fw.fparams, node_ticks)
         self.six = six_state_fixed_node.build(self.fw)
+        self.run_firmware = firmware_constants.runner(self.fw.params, self.fw.fparams, node_ticks, self.six[0])
         self.work6 = six_state.new_work()
         self.asks = 0  # encoder requests in the windows before
         self.points = s.filter.moving_average_points

@@ -29,11 +29,13 @@ def test_a_run_with_the_build_compiled_in_is_the_run_with_the_words_in_arrays(mo
     assert any(n.yaw_est_rad.size and np.isfinite(n.yaw_est_rad).any() for n in constants.chain.nodes)
 
 
-def test_the_build_is_compiled_in_only_for_a_large_run():
+def test_the_build_is_compiled_in_only_for_a_large_run_of_the_two_state_firmware():
     params, fparams = np.arange(10, dtype=np.int64), np.arange(50, dtype=np.int64)
-    small = firmware_constants.runner(params, fparams, firmware_constants.MIN_NODE_TICKS - 1)
+    small = firmware_constants.runner(params, fparams, firmware_constants.MIN_NODE_TICKS - 1, False)
     assert small is filters.run_node_firmware
-    large = firmware_constants.runner(params, fparams, firmware_constants.MIN_NODE_TICKS)
+    six = firmware_constants.runner(params, fparams, firmware_constants.MIN_NODE_TICKS, True)
+    assert six is filters.run_node_firmware  # the 6-state node keeps its arrays
+    large = firmware_constants.runner(params, fparams, firmware_constants.MIN_NODE_TICKS, False)
     assert large is firmware_constants.firmware_for(tuple(range(10)), tuple(range(50)))  # one per build (cached)
     assert large is not filters.run_node_firmware
 
