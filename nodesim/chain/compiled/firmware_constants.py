@@ -38,7 +38,8 @@ MIN_NODE_TICKS = 50_000_000
 def source_stamp() -> int:
     """A hash of the size and modification time of the files compiled into :func:`firmware_for`'s function
     (``firmware_model/*.py`` and this package's), which its cache key holds."""
-    files = sorted(Path(firmware_model.__file__).parent.glob("*.py")) + sorted(Path(filters.__file__).parent.glob("*.py"))
+    files = sorted(Path(firmware_model.__file__).parent.glob("*.py"))
+    files += sorted(Path(filters.__file__).parent.glob("*.py"))
     text = repr([(f.name, f.stat().st_size, f.stat().st_mtime_ns) for f in files]).encode()
     return int.from_bytes(hashlib.sha256(text).digest()[:7], "little")  # the same in every process
 
