@@ -80,6 +80,30 @@ def tick_times(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float
     return t
 
 
+def tick_span(offset_s: float, drift_ppm: float, dt_s: float, duration_s: float,
+              present_from_s: float) -> tuple[int, int, float]:
+    """(j0, j1, period): the ticks of :func:`tick_times` inside [0, duration] from ``present_from_s`` on (a clock
+    without steps: :meth:`Network._tick_times`) are its k-th values for j0 <= k < j1, float(k) period + offset
+    (the same doubles), found without the array: k estimated, then moved while the doubles say so."""
+    period = tick_period_s(drift_ppm, dt_s)
+    if offset_s > duration_s:
+        return 0, 0, period
+    n = int(math.floor((duration_s - offset_s) / period + 1e-9)) + 1
+
+    def first(x: float, above: bool) -> int:  # the first k in [0, n] whose tick is >= x (> x when above)
+        if math.isnan(x) or x == math.inf:
+            return n
+        k = 0 if x == -math.inf else min(max(math.ceil((x - offset_s) / period), 0), n)
+        while k > 0 and (float(k - 1) * period + offset_s > x if above else float(k - 1) * period + offset_s >= x):
+            k -= 1
+        while k < n and (float(k) * period + offset_s <= x if above else float(k) * period + offset_s < x):
+            k += 1
+        return k
+
+    j1 = first(duration_s, True)
+    return min(max(first(0.0, False), first(present_from_s, False)), j1), j1, period
+
+
 class Network:
     """The SimPy world of one run (built by :func:`simulate_chain`)."""
 
@@ -138,9 +162,10 @@ class Network:
         # every node's tick times as a row of one table (N, K_max), the node's t_s a view of its row (past its K
         # ticks the row is left unset and never read): the compiled engine's phase 1 reads the table as it is, and no
         # second copy of the run's tick times (8 bytes a node-tick) is ever held;
-        # the sizes come from a first pass.  ``spill`` (a streamed run on the compiled engine): the whole-run tables
+        # the sizes come first (tick_span, without the arrays where the clocks do not step).  ``spill`` (a streamed run on the compiled engine): the whole-run tables
         # (this one, the tick plan, phase 1's records) go to disk where they are large (:mod:`nodesim.chain.scratch`)
-        sizes = [self._tick_times(i).size for i in range(c.nodes)]
+        spans = [self._tick_span(i) for i in range(c.nodes)]
+        sizes = [span[1] - span[0] if span else self._tick_times(i).size for i, span in enumerate(spans)]
         self.scratch = None
         if spill and scratch.spills(c.nodes, max(sizes), R, mac.bit_errors):
             self.scratch = scratch.ScratchArrays(scratch.scratch_directory())
@@ -149,9 +174,16 @@ class Network:
         # is such: phase 1 then computes the tick times instead of reading the table (Network.tick_clock)
         affine = not scenario.faults.clock_step
         first, period, offset = np.zeros(c.nodes, np.int64), np.zeros(c.nodes), np.zeros(c.nodes)
+        base, row = np.arange(max(x[1] if x else 0 for x in spans), dtype=float), np.empty(max(sizes))
         for i, size in enumerate(sizes):
             t = self.tick_table[i, :size]
-            t[:] = ticks = self._tick_times(i)
+            if spans[i]:  # tick_times' doubles from k = j0 on, in one buffer (no array of every node's ticks)
+                j0, j1, p, off = spans[i]
+                ticks = np.multiply(base[j0:j1], p, out=row[:size])
+                ticks += off
+            else:
+                ticks = self._tick_times(i)
+            scratch.write(self.scratch, t, ticks)  # (to the file where the table is on disk: no page faults)
             affine = affine and self._affine_clock(i, ticks, first, period, offset)
             if i % scratch.DROP_EVERY_ROWS == scratch.DROP_EVERY_ROWS - 1:
                 scratch.drop(self.scratch)  # the rows written so far leave memory
@@ -227,6 +259,17 @@ class Network:
         j = int(round((ticks[0] - off) / p))
         first[i], period[i], offset[i] = j, p, off
         return float(j) * p + off == ticks[0] and float(j + ticks.size - 1) * p + off == ticks[-1]
+
+    def _tick_span(self, i: int) -> tuple[int, int, float, float] | None:
+        """(j0, j1, period, offset) of node index ``i``'s ticks (:func:`tick_span`) where its clock does not step and
+        it has ticks; else None (:meth:`_tick_times` makes them, or says why there are none)."""
+        scenario = self.scenario
+        if any(x.node == i + 1 for x in scenario.faults.clock_step):
+            return None
+        offset, drift = node_clock(scenario, i + 1)
+        j0, j1, period = tick_span(offset, drift, self.dt_s, scenario.simulation.duration_s,
+                                   self.motion.timelines[i].present_from_s)
+        return (j0, j1, period, offset) if j1 > j0 else None
 
     def _tick_times(self, i: int) -> np.ndarray:
         """Node index ``i``'s true tick times: its clock, its clock steps, from its insertion on (a node not yet in

@@ -21,6 +21,7 @@ import math
 import mmap
 import os
 import tempfile
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -85,6 +86,7 @@ class ScratchArrays:
     def __init__(self, directory: Path):
         self.directory = Path(directory)
         self._maps: list[mmap.mmap] = []
+        self._regions: list[tuple[int, int, int]] = []  # (address, bytes, descriptor) of each array's mapping
         self.nbytes = 0
 
     def empty(self, shape: tuple, dtype) -> np.ndarray:
@@ -101,11 +103,35 @@ class ScratchArrays:
                     f"(the temporary directory; TMPDIR chooses it) and it has {free / 1e9:.3g} GB free ({err.strerror}): "
                     "free some, point TMPDIR elsewhere, or lower chain.nodes / simulation.duration_s") from None
             m = mmap.mmap(f.fileno(), size)  # shared, read-write; the mapping outlives the (unlinked) file's descriptor
+            fd = os.dup(f.fileno())  # for write(); closed with this object
+            weakref.finalize(self, os.close, fd)
         if hasattr(mmap, "MADV_RANDOM"):  # a read maps its page, not the large folio around it (up to ~1 MB on Linux 6)
             m.madvise(mmap.MADV_RANDOM)
         self._maps.append(m)
         self.nbytes += size
-        return np.frombuffer(m, dtype=dtype, count=math.prod(shape)).reshape(shape)
+        a = np.frombuffer(m, dtype=dtype, count=math.prod(shape)).reshape(shape)
+        self._regions.append((a.ctypes.data, size, fd))
+        return a
+
+    def write(self, a: np.ndarray, values: np.ndarray) -> None:
+        """``a[...] = values`` for ``a`` a contiguous part of one of these arrays, written to the file
+        (``pwrite``) instead of through the mapping: the kernel copies the bytes in without a page fault per 4 kB
+        page of the process (a mapped page's first write faults).  The drilling day's tick table (1.3 GB):
+        0.46-0.49 s against 1.35-1.42 s through the mapping (2026-12-06).  The mapping reads the same bytes."""
+        if not a.flags.c_contiguous:
+            raise ValueError("ScratchArrays.write: the target is not contiguous")
+        if a.size == 0:
+            return
+        data = np.ascontiguousarray(np.broadcast_to(values, a.shape), dtype=a.dtype)
+        address = a.ctypes.data
+        for start, size, fd in self._regions:
+            if start <= address and address + a.nbytes <= start + size:
+                view, at = memoryview(data).cast("B"), address - start
+                while view.nbytes:
+                    done = os.pwrite(fd, view, at)
+                    view, at = view[done:], at + done
+                return
+        raise ValueError("ScratchArrays.write: the target is not one of these arrays")
 
     def fill(self, a: np.ndarray, value) -> None:
         """Set every element of ``a`` (one of these arrays, contiguous) to ``value``, :data:`FILL_BYTES` at a time,
@@ -146,6 +172,14 @@ def fill(arrays: ScratchArrays | None, a: np.ndarray, value) -> None:
         a[...] = value
     else:
         arrays.fill(a, value)
+
+
+def write(arrays: ScratchArrays | None, a: np.ndarray, values: np.ndarray) -> None:
+    """``a[...] = values``: :meth:`ScratchArrays.write` where ``a`` is in them, else in memory."""
+    if arrays is None:
+        a[...] = values
+    else:
+        arrays.write(a, values)
 
 
 def drop(arrays: ScratchArrays | None) -> None:

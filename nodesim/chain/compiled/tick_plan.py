@@ -58,7 +58,7 @@ def tick_plan(nodes, Kmax: int, arrays=None) -> np.ndarray:
     plan = spill.zeros(arrays, (len(nodes), Kmax), np.int8)
     for n, node in enumerate(nodes):
         t = node.t_s
-        plan[n, :t.size] = node_codes(t, node.timeline, node.scheduled, node.dead_at_s)
+        spill.write(arrays, plan[n, :t.size], node_codes(t, node.timeline, node.scheduled, node.dead_at_s))
         if n % spill.DROP_EVERY_ROWS == spill.DROP_EVERY_ROWS - 1:
             spill.drop(arrays)
     return plan

@@ -8,7 +8,7 @@ import pytest
 
 from nodesim.chain.network import simulate_chain
 from nodesim.chain.metrics import per_realization_metrics, summarize
-from nodesim.chain.network import tick_times
+from nodesim.chain.network import Network, tick_span, tick_times
 from nodesim.scenario.schema import Scenario
 from nodesim.units import DEG, wrap_pi
 
@@ -98,6 +98,52 @@ def test_clock_offset_and_drift():
     assert run.nodes[0].t_s[0] == 0.0 and run.nodes[1].t_s[0] == 0.3
     assert math.isclose(np.diff(run.nodes[1].t_s).mean(), (1 / 1.9) / (1 + 50e-6))
     assert run.nodes[1].update_mask.any()
+
+
+def _ticks_from_the_array(offset, drift, dt, duration, present):
+    """Network._tick_times' ticks of a clock without steps, from the whole array (faults.stepped_ticks' slice)."""
+    t = tick_times(offset, drift, dt, duration)
+    t = t[np.searchsorted(t, 0.0, side="left"):np.searchsorted(t, duration, side="right")]
+    return t[np.searchsorted(t, present, side="left"):]
+
+
+def test_tick_span_gives_the_array_s_ticks_without_the_array():
+    rng = np.random.default_rng(7)
+    dt = 1 / 1.9
+    cases = [(0.0, 0.0, 86400.0, 0.0), (0.0, 0.0, 86400.0, 60.0), (0.0, 0.0, 100.0, 200.0), (150.0, 0.0, 100.0, 0.0),
+             (0.25, 100.0, 100.0, -5.0), (0.0, 0.0, 10 * dt, 10 * dt), (0.0, -30.0, 500.0, 3 * dt / (1 - 30e-6)),
+             (0.0, 0.0, 100.0, math.inf), (0.0, 0.0, 100.0, -math.inf)]
+    for _ in range(300):
+        present = rng.choice([rng.uniform(-10, 5000), float(rng.integers(0, 9000)) * dt])  # on a tick, or between
+        cases.append((float(rng.choice([0.0, rng.uniform(0, 2)])), float(rng.uniform(-200, 200)), rng.uniform(1, 5000),
+                      float(present)))
+    for offset, drift, duration, present in cases:
+        expected = _ticks_from_the_array(offset, drift, dt, duration, present)
+        j0, j1, period = tick_span(offset, drift, dt, duration, present)
+        made = np.arange(j1, dtype=float)[j0:j1] * period + offset
+        assert j1 - j0 == expected.size and np.array_equal(made, expected), (offset, drift, duration, present)
+
+
+@pytest.mark.parametrize("spill", [False, True])
+def test_the_tick_table_holds_each_node_s_ticks(spill, monkeypatch):
+    """Node clocks with offsets and drift, a clock step, a string partly in the hole: each row of the tick table
+    (written from tick_span, or from the array where the clock steps; to the file when it spills) is the node's
+    ticks."""
+    from nodesim.chain import scratch
+
+    monkeypatch.setattr(scratch, "SPILL_MIN_BYTES", 0)
+    scenario = Scenario().with_overrides(**{
+        "motion.kind": "drilling", "chain.nodes": 5, "motion.initial_tubes": 3, "simulation.duration_s": 1500.0,
+        "metrics.window_start_s": 0.0, "metrics.window_end_s": 1500.0,
+        "chain.node": [{"id": 2, "clock_offset_s": 0.3, "clock_drift_ppm": 50.0},
+                       {"id": 4, "clock_offset_s": 0.1, "clock_drift_ppm": -80.0}],
+        "faults.clock_step": [{"node": 3, "at_s": 100.0, "step_s": 0.2}]})
+    net = Network(scenario, attach_signals=False, spill=spill)
+    assert (net.scratch is not None) == spill and net.tick_clock()[0] is False  # the step: not affine
+    assert [net._tick_span(i) is None for i in range(5)] == [False, False, True, False, False]
+    for i, node in enumerate(net.nodes):
+        assert np.array_equal(node.t_s, net._tick_times(i))
+    assert net.nodes[0].t_s[0] > net.nodes[1].t_s[0] > 60.0  # the new tubes (at the top) tick from their insertion
 
 
 def test_realizations_share_the_event_skeleton_and_own_their_draws():

@@ -56,6 +56,27 @@ def test_dropping_takes_the_pages_out_of_the_resident_memory(tmp_path):
     assert int(a[::4096].sum()) == a.size // 4096  # and the values are read back from the file
 
 
+def test_write_puts_the_values_in_the_file_the_mapping_reads(tmp_path):
+    s = scratch.ScratchArrays(tmp_path)
+    a, b = s.empty((4, 3000), np.float64), s.empty((5,), np.int16)
+    row = np.linspace(-1.0, 1.0, 2000)
+    s.write(a[2, 500:2500], row)
+    s.write(b[1:3], np.array([7, -8], np.int16))
+    s.write(a[0, :0], row[:0])  # nothing
+    expected = np.zeros(a.shape)
+    expected[2, 500:2500] = row
+    assert np.array_equal(a, expected) and b.tolist() == [0, 7, -8, 0, 0]
+    s.drop()
+    assert np.array_equal(a, expected)  # in the file, not only in the process's pages
+    with pytest.raises(ValueError, match="not one of these arrays"):
+        s.write(np.zeros(3), np.ones(3))
+    with pytest.raises(ValueError, match="not contiguous"):
+        s.write(a[:, 0], np.ones(4))
+    plain = np.zeros(3)
+    scratch.write(None, plain, np.arange(3.0))  # no scratch arrays: in memory
+    assert plain.tolist() == [0.0, 1.0, 2.0]
+
+
 def test_fill_writes_its_value_a_slice_at_a_time(tmp_path, monkeypatch):
     monkeypatch.setattr(scratch, "FILL_BYTES", 4096)
     s = scratch.ScratchArrays(tmp_path)
