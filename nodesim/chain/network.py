@@ -170,6 +170,7 @@ class Network:
         if spill and scratch.spills(c.nodes, max(sizes), R, mac.bit_errors):
             self.scratch = scratch.ScratchArrays(scratch.scratch_directory())
         self.tick_table = scratch.zeros(self.scratch, (c.nodes, max(sizes)), float)
+        self.node_ticks = sum(sizes)  # every node's ticks, summed (the run's size)
         # node n's tick k is (k + first[n]) period[n] + offset[n] (tick_times' two roundings), where every clock
         # is such: phase 1 then computes the tick times instead of reading the table (Network.tick_clock)
         affine = not scenario.faults.clock_step

@@ -222,11 +222,8 @@ class NodeImuStream:
         self.k_next = k1
         imu, R, K = self.imu, self.R, k1 - k0
         whole = k0 == 0 and k1 == self.t_s.size
-        if imu.sampling == "tick_sum" and not whole and self.z_g is None:  # where the tick-sum normals start: after
-            # the whole drive (3 K normals)
-            self.z_g = self.z_gm.copy()
-            drive = 3 * self.t_s.size if self.gm[0] != 0.0 else 0
-            threads.map_chunks(lambda r0, r1: pcg64.skip_normals(self.z_g[r0:r1], drive), R)
+        if not whole:
+            self.find_tick_sums()
         t_s = self.t_s[k0:k1]
         first, n = tc.sample_windows(self.t_s[max(k0 - 1, 0):k1], self.dt_s, imu.sample_rate_hz)
         first, n = (first[1:], n[1:]) if k0 > 0 else (first, n)  # tick k0 - 1 only gives tick k0's first sample
@@ -292,6 +289,18 @@ class NodeImuStream:
         return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, self.tilt,
                           int(g_sel.sum() + a_sel.sum()))
 
+
+    def find_tick_sums(self) -> None:
+        """Where the tick-sum normals start in the "gyro" stream, after the node's whole Gauss-Markov drive (3 K
+        normals, drawn and dropped: ~3 ms a node of the drilling day): found once, for a node read in more than one
+        window, by :meth:`counts` at its first window or before it by anyone (the run in windows does it for every
+        node while phase 1 is still under way)."""
+        if self.imu.sampling != "tick_sum" or self.z_g is not None:
+            return
+        z_g = self.z_gm.copy()
+        drive = 3 * self.t_s.size if self.gm[0] != 0.0 else 0
+        threads.map_chunks(lambda r0, r1: pcg64.skip_normals(z_g[r0:r1], drive), self.R)
+        self.z_g = z_g
 
     def _sample_states(self, stream: str) -> np.ndarray:
         """(R, 4): the PCG64 states of the per-sample stream ``stream`` where its next draw is (made at the first)."""

@@ -425,7 +425,7 @@ def _run_node_firmware(net, n: int, out, k_end: int, n_static: int, codes: np.nd
     six = six_state_fixed_node.build(fw)  # (is 6-state, its build, initial lane): the fixed 6-state node's tick
     words = np.zeros((R, len(fr.FIELDS[fr.ESTIMATE])), np.int64)
     k_first = n_static + 1  # the first tick that may take a reference or send a frame
-    firmware = firmware_constants.runner(fw.params, fw.fparams, R * sum(x.t_s.size for x in net.nodes), six[0])
+    firmware = firmware_constants.runner(fw.params, fw.fparams, R * net.node_ticks, six[0])
 
     def run(r0: int, r1: int) -> np.ndarray:
         counts = np.zeros(len(fw.SITES), dtype=np.int64)  # per range of realizations, summed below

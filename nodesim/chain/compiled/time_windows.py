@@ -27,6 +27,7 @@ first, whole processes interleaved, 2026-12-06).  Covered: the fixed-point 2-sta
 
 from __future__ import annotations
 
+import bisect
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
@@ -177,8 +178,18 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
     keep_s = s.chain.max_update_age_s + 1.0  # a frame older than this at a window's end is never taken after it
     outputs, sensors = _Outputs(), _Sensors(net)
     surveys = list(net.ground)  # each set to its frame as it is made; grows window by window
+
+    def prepare() -> None:  # every node's carried state, while phase 1 makes the first window's records final
+        edges = window_edges(s.simulation.duration_s)
+        for n in sorted(range(N), key=lambda i: net.nodes[i].t_s[0]):  # the first window's nodes first
+            t = net.nodes[n].t_s
+            nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span, stream.node_windows(net.nodes[n].node_id, t, R),
+                             int(total) * R)
+            if bisect.bisect_right(edges, t[0]) != bisect.bisect_right(edges, t[-1]):  # read in more than one window
+                nodes[n].imu.find_tick_sums()
+
     try:
-        steps = _steps(net, sensors, phase1, senders, surveys)
+        steps = _steps(net, sensors, phase1, senders, surveys, prepare)
         ahead: list = []  # the next steps, their sensors under way on the worker
         while True:
             while len(ahead) <= SENSORS_AHEAD:
@@ -186,9 +197,6 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
                 if step is None:
                     break
                 t1, n, k0, k1, _ = step
-                if nodes[n] is None:
-                    nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span,
-                                     stream.node_windows(net.nodes[n].node_id, net.nodes[n].t_s, R), int(total) * R)
                 ahead.append((step, sensors.submit(nodes[n], k0, k1)))
             if not ahead:
                 break
@@ -233,15 +241,20 @@ SENSOR_THREADS = 1
 taken).  Two: the drilling day in four windows 83.6 / 84.6 s against 73.3-82.8 s with one (2026-12-06)."""
 
 
-def _steps(net, sensors: "_Sensors", phase1: PhaseOne, senders: list, surveys: list):
+def window_edges(duration_s: float) -> list[float]:
+    """The windows' edges in simulated time: 0, W, 2 W, ..., inf (:func:`window_s`)."""
+    W = window_s(duration_s)
+    edges = [i * W for i in range(max(1, math.ceil(duration_s / W)) + 1)]
+    edges[-1] = math.inf
+    return edges
+
+
+def _steps(net, sensors: "_Sensors", phase1: PhaseOne, senders: list, surveys: list, prepare: Callable[[], None]):
     """(window end, node index, k0, k1, phase 1's records) of every (window, node) step with ticks, in run order;
     each window's shared truth is queued on the sensors' worker before its first step, and its steps come once
     phase 1's records of the window are final (with the surveys sent in it added to ``net.ground`` and
-    ``surveys``)."""
-    duration = net.scenario.simulation.duration_s
-    W = window_s(duration)
-    edges = [i * W for i in range(max(1, math.ceil(duration / W)) + 1)]
-    edges[-1] = math.inf
+    ``surveys``); ``prepare()`` is called once, after the first window's truth is queued and before that wait."""
+    edges = window_edges(net.scenario.simulation.duration_s)
     T, clock = net.tick_table, net.tick_clock()
     K = np.array([node.t_s.size for node in net.nodes], np.int64)
     for t0, t1 in zip(edges[:-1], edges[1:]):
@@ -251,6 +264,9 @@ def _steps(net, sensors: "_Sensors", phase1: PhaseOne, senders: list, surveys: l
         spill.drop(net.scratch)  # the tick table's pages the bisections read (none where the clocks are affine)
         bounds = [(int(k0), int(k1), float(a), float(z)) for (k0, k1), (a, z) in zip(b, times)]
         sensors.next_window(bounds)
+        if prepare is not None:
+            prepare()
+            prepare = None
         out, arrivals = phase1.wait(t1)
         ground_surveys(net, senders, arrivals, t1)
         surveys.extend(net.ground[len(surveys):])
