@@ -90,8 +90,8 @@ def drilling_day_first_1h_states6() -> dict:
         tmp = Path(tmp)
         two = _day_slice(tmp, 1)
         for states, path in ((6, _states6(two)), (2, two)):
-            wall, peak, _ = _process(["-c", PEAK, "run", str(path), "--out", str(tmp / f"run{states}"), "--quiet",
-                                      "--json"])
+            wall, peak, _, _ = _process(["-c", PEAK, "run", str(path), "--out", str(tmp / f"run{states}"), "--quiet",
+                                         "--json"])
             out[f"drilling_day_first_1h_states{states}_wall_s"] = wall
             out[f"drilling_day_first_1h_states{states}_peak_rss_gb"] = peak / 1e9
     out["drilling_day_first_1h_states6_vs_states2_wall"] = (out["drilling_day_first_1h_states6_wall_s"]
