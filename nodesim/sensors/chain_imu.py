@@ -289,7 +289,6 @@ class NodeImuStream:
         return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, self.tilt,
                           int(g_sel.sum() + a_sel.sum()))
 
-
     def find_tick_sums(self) -> None:
         """Where the tick-sum normals start in the "gyro" stream, after the node's whole Gauss-Markov drive (3 K
         normals, drawn and dropped: ~3 ms a node of the drilling day): found once, for a node read in more than one

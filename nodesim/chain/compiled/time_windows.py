@@ -21,8 +21,11 @@ window sums are added (:class:`nodesim.chain.metrics.NodeMetricSums`, ~1e-15 rel
 come window by window (node, then time, inside a window).  A window starts once phase 1's records of its ticks are
 final: with more than one thread, phase 1 runs on a thread of its own beside the windows (:mod:`.phase_one`; the
 drilling day's second half of phase 1 beside its first window: 67.6 / 71.0 s against 72.1 / 74.4 s for phase 1
-first, whole processes interleaved, 2026-12-06).  Covered: the fixed-point 2-state firmware without
-``mac.bit_errors`` (:func:`windowed`), the drilling day's; other runs go node by node.
+first, whole processes interleaved, 2026-12-06); meanwhile the main thread makes every node's carried state
+(:class:`_Node`, with its tick-sum normals' start, ~3 ms a node of the day:
+:meth:`~nodesim.sensors.chain_imu.NodeImuStream.find_tick_sums`) on the core phase 1 leaves idle.  Covered: the
+fixed-point 2-state firmware without ``mac.bit_errors`` (:func:`windowed`), the drilling day's; other runs go node by
+node.
 """
 
 from __future__ import annotations

@@ -134,9 +134,11 @@ def test_a_finished_run_frees_its_network_without_the_cyclic_collector():
         network.Network.__init__ = init
 
 
-def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, cuts: list[int]) -> int:
-    """A node's counts read window by window (:class:`chain_imu.NodeImuStream`, windows cut at ``cuts``) equal, tick
-    for tick, its counts read in one window (:func:`chain_imu.node_counts`); returns the per-sample ticks."""
+def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, cuts: list[int],
+                              found_before: bool = False) -> int:
+    """A node's counts read window by window (:class:`chain_imu.NodeImuStream`, windows cut at ``cuts``; with
+    ``found_before``, its tick-sum normals' start found before the first) equal, tick for tick, its counts read in
+    one window (:func:`chain_imu.node_counts`); returns the per-sample ticks."""
     scenario = Scenario.model_validate(scenario_keys)
     imu = chain_imu.ChainImu.from_scenario(scenario)
     motion = build_motion(scenario)
@@ -145,6 +147,8 @@ def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, 
     truth = sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True) if shared else None
     whole = chain_imu.node_counts(imu, motion, RunStreams(seed=5, n_nodes=2), 1, t, dt, R, truth)
     stream = chain_imu.NodeImuStream(imu, motion, RunStreams(seed=5, n_nodes=2), 1, t, dt, R, truth)
+    if found_before:
+        stream.find_tick_sums()
     edges = [0, *cuts, t.size]
     parts = [stream.counts(a, b, truth) for a, b in zip(edges[:-1], edges[1:])]
     for name, axis in (("gyro_counts", 1), ("accel_counts", 1), ("samples", 0), ("true_bias_rad_s", 1)):
@@ -166,6 +170,7 @@ def test_a_node_read_in_windows_of_ticks_reads_what_it_reads_at_once():
     for shared in (True, False):
         for cuts in ([1], [1, 2, 3, 500, 501, 1097], [137, 700]):
             assert _windows_equal_one_window(keys, t, shared, cuts) == 0
+    assert _windows_equal_one_window(keys, t, True, [137, 700], found_before=True) == 0  # as a run in windows does
     keys["sensor"] = {"gyro_bias_instability_deg_s": 0.0}  # no drive: the tick-sum normals start the stream
     assert _windows_equal_one_window(keys, t, True, [1, 600]) == 0
 
