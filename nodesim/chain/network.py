@@ -162,8 +162,9 @@ class Network:
         # every node's tick times as a row of one table (N, K_max), the node's t_s a view of its row (past its K
         # ticks the row is left unset and never read): the compiled engine's phase 1 reads the table as it is, and no
         # second copy of the run's tick times (8 bytes a node-tick) is ever held;
-        # the sizes come first (tick_span, without the arrays where the clocks do not step).  ``spill`` (a streamed run on the compiled engine): the whole-run tables
-        # (this one, the tick plan, phase 1's records) go to disk where they are large (:mod:`nodesim.chain.scratch`)
+        # the sizes come first (tick_span, without the arrays where the clocks do not step).  ``spill`` (a streamed
+        # run on the compiled engine): the whole-run tables (this one, the tick plan, phase 1's records) go to disk
+        # where they are large (:mod:`nodesim.chain.scratch`)
         spans = [self._tick_span(i) for i in range(c.nodes)]
         sizes = [span[1] - span[0] if span else self._tick_times(i).size for i, span in enumerate(spans)]
         self.scratch = None

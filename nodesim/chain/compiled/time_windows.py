@@ -176,7 +176,7 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
     summaries in node order)."""
     N, R = net.n_nodes, net.R
     s = net.scenario
-    nodes: list[_Node | None] = [None] * N
+    nodes: list[_Node | None] = [None] * N  # every one made by prepare(), before the first step
     total, done, steps_done = float(K.sum()), 0, 0
     keep_s = s.chain.max_update_age_s + 1.0  # a frame older than this at a window's end is never taken after it
     outputs, sensors = _Outputs(), _Sensors(net)
@@ -187,12 +187,12 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
         for n in sorted(range(N), key=lambda i: net.nodes[i].t_s[0]):  # the first window's nodes first
             t = net.nodes[n].t_s
             nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span, stream.node_windows(net.nodes[n].node_id, t, R),
-                             int(total) * R)
+                             net.node_ticks * R)
             if bisect.bisect_right(edges, t[0]) != bisect.bisect_right(edges, t[-1]):  # read in more than one window
                 nodes[n].imu.find_tick_sums()
 
     try:
-        steps = _steps(net, sensors, phase1, senders, surveys, prepare)
+        steps = _steps(net, K, sensors, phase1, senders, surveys, prepare)
         ahead: list = []  # the next steps, their sensors under way on the worker
         while True:
             while len(ahead) <= SENSORS_AHEAD:
@@ -206,12 +206,11 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
             (t1, n, k0, k1, out), sensed = ahead.pop(0)
             run, survey_from, mine = _window(net, nodes, n, k0, k1, sensed(), out, plan)
             outputs.submit(_outputs_of, net, nodes[n], run, survey_from, k0, mine, surveys)
-            if n >= 2 and nodes[n - 2] is not None:  # its receivers (n - 1, n) have run this window
+            if n >= 2:  # its receivers (n - 1, n) have run this window
                 nodes[n - 2].trim(t1 - keep_s)
             if not ahead or ahead[0][0][0] != t1:  # the window's last step: the last two nodes' receivers are done
                 for x in nodes[max(n - 1, 0):n + 1]:
-                    if x is not None:
-                        x.trim(t1 - keep_s)
+                    x.trim(t1 - keep_s)
             done += k1 - k0
             steps_done += 1
             if steps_done % DROP_EVERY_STEPS == 0:
@@ -252,14 +251,15 @@ def window_edges(duration_s: float) -> list[float]:
     return edges
 
 
-def _steps(net, sensors: "_Sensors", phase1: PhaseOne, senders: list, surveys: list, prepare: Callable[[], None]):
-    """(window end, node index, k0, k1, phase 1's records) of every (window, node) step with ticks, in run order;
+def _steps(net, K: np.ndarray, sensors: "_Sensors", phase1: PhaseOne, senders: list, surveys: list,
+           prepare: Callable[[], None]):
+    """(window end, node index, k0, k1, phase 1's records) of every (window, node) step with ticks (``K`` each node's
+    ticks), in run order;
     each window's shared truth is queued on the sensors' worker before its first step, and its steps come once
     phase 1's records of the window are final (with the surveys sent in it added to ``net.ground`` and
     ``surveys``); ``prepare()`` is called once, after the first window's truth is queued and before that wait."""
     edges = window_edges(net.scenario.simulation.duration_s)
     T, clock = net.tick_table, net.tick_clock()
-    K = np.array([node.t_s.size for node in net.nodes], np.int64)
     for t0, t1 in zip(edges[:-1], edges[1:]):
         b = np.zeros((len(net.nodes), 2), np.int64)
         times = np.zeros((len(net.nodes), 2))
