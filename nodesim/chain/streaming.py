@@ -42,30 +42,48 @@ from nodesim.scenario.schema import Scenario
 INTEGER_COLUMNS = ("node", "running", "update")
 """The timeseries columns that hold integers (one value per node's row group, or 0/1 flags)."""
 
-DICTIONARY_COLUMNS = ("update_age_s", "yaw_sigma_deg")
-"""The float timeseries columns of few distinct values (the ages of the few frames in flight; the fixed-point
-filter's P_yy, which settles to a handful of words), dictionary-encoded."""
+DICTIONARY_COLUMNS = ("running",)
+"""The timeseries columns dictionary-encoded: the 0/1 filter-running flag (runs of one value a node)."""
+
+PLAIN_COLUMNS = ("node", "update_age_s", "yaw_sigma_deg")
+"""The timeseries columns written plain, left to zstd: the node's id (one value a row group's block), the ages of
+the few frames in flight and the fixed-point filter's P_yy (a handful of words once settled)."""
+
+FAST_ZSTD_COLUMNS = ("true_yaw_deg", "yaw_est_deg", "yaw_error_deg", "bias_true_deg_s", "bias_est_deg_s",
+                     "inclination_deg", "azimuth_deg")
+"""The noisy float columns (zstd packs them to 4-6 bytes a value at best), compressed at zstd's level
+:data:`FAST_ZSTD_LEVEL`, the others at -1."""
+
+FAST_ZSTD_LEVEL = -5
+
+
+def _encoding(column: str) -> str:
+    return ("PLAIN" if column in PLAIN_COLUMNS else "DELTA_BINARY_PACKED" if column in INTEGER_COLUMNS else
+            "BYTE_STREAM_SPLIT")
+
 
 PARQUET_OPTIONS = {
-    "compression": "zstd", "compression_level": -1, "use_dictionary": list(DICTIONARY_COLUMNS),
+    "compression": "zstd", "use_dictionary": list(DICTIONARY_COLUMNS),
+    "compression_level": {k: FAST_ZSTD_LEVEL if k in FAST_ZSTD_COLUMNS else -1 for k in TIMESERIES_COLUMNS},
     "write_statistics": ["node", "t_s"],
-    "column_encoding": {k: "DELTA_BINARY_PACKED" if k in INTEGER_COLUMNS else "BYTE_STREAM_SPLIT"
-                        for k in TIMESERIES_COLUMNS if k not in DICTIONARY_COLUMNS}}
+    "column_encoding": {k: _encoding(k) for k in TIMESERIES_COLUMNS if k not in DICTIONARY_COLUMNS}}
 """How timeseries Parquet files are written (streamed or whole, :func:`nodesim.io.rundir.write_parquet`), with the
-schema of :func:`timeseries_table`: zstd; the integer columns delta-encoded (a node's id and the 0/1 flags pack to
-a few bits a row); the :data:`DICTIONARY_COLUMNS` dictionary-encoded, the other float columns byte-stream split (the
-k-th bytes of all values side by side, which zstd packs better); min/max statistics for ``node`` and ``t_s`` only
-(what a reader filters row groups on).  The dictionaries (2026-12-05, 4 of the drilling day's node row groups, 0.5 M
-rows, thread time, min of 3, column by column): ``update_age_s`` 15.3 ns and 0.16 bytes a row against 19.4 ns and
-0.98 bytes byte-stream split, ``yaw_sigma_deg`` 19.3 ns and 1.18 bytes against 27.5 ns and 2.69 bytes; the other
-columns were slower with a dictionary (the filter's estimates and the true yaw 3-10x), the integer ones within 1 ns;
-the whole table 173 against 186-193 ns and 28.6 against 30.9 bytes a row.  On the drilling
-day's node rows (2 x 164 k, 2026-12-03, process time, min of 5) that took 147 ns a row against 198 ns with
-dictionaries on the integer columns, statistics on all and nullable columns, for the same 31.1 bytes a row
-(plain zstd: 37.4); the values and dtypes are the same.  zstd's level -1 (its fastest positive-ratio setting after
-1, pyarrow's default): on 100 of the day's first hour's node row groups (2026-12-05, thread time, min / median of
-3, twice) 210 / 215 ns a row against 225-227 / 226-230 at level 1, for 32.41 bytes a row against 32.07 (+1.1 %); the
-writer is the run's largest single consumer (~29 s of the day's ~110 s of CPU)."""
+schema of :func:`timeseries_table`: zstd, at level -1 (its fastest positive-ratio setting after 1, pyarrow's
+default) and -5 for the :data:`FAST_ZSTD_COLUMNS`; the :data:`DICTIONARY_COLUMNS` dictionary-encoded, the
+:data:`PLAIN_COLUMNS` plain, the other integer columns delta-encoded (the 0/1 update flag packs to a few bits a
+row), the other float columns byte-stream split (the k-th bytes of all values side by side, which zstd packs
+better); min/max statistics for ``node`` and ``t_s`` only (what a reader filters row groups on).  The writer is the
+run's largest single consumer of CPU (~25 % of the drilling day's).  Measured column by column on 16 of the drilling
+day's row groups (1.3 M rows, 2026-12-06, thread time, min of 5; ``/tmp`` scripts, not kept): ``node`` 3.4 ns a
+row plain against 7.1 delta and 4.9 dictionary; ``running`` 5.4 dictionary against 6.9 delta; ``update_age_s`` 15.0
+plain against 17.2 dictionary and 21.5 byte-stream split; ``yaw_sigma_deg`` 19.2 plain against 20.5 dictionary and
+30.3 byte-stream split; ``yaw_est_deg`` 15.2 at level -5 against 18.6 at -1 (4.54 against 4.12 bytes),
+``yaw_error_deg`` 9.9 against 13.7.  The whole table (interleaved, min / median of 5): 172 / 179 ns and 30.4
+bytes a row against 201 / 207 ns and 28.5 bytes with the options before (dictionaries on ``update_age_s`` and
+``yaw_sigma_deg``, delta on all integer columns, level -1 throughout), 187 / 191 ns and 29.0 bytes with these
+encodings at level -1 throughout, 167 / 169 ns and 31.9 bytes at level -10 on the noisy columns.  Earlier
+(2026-12-03/05): the filter's estimates and the true yaw 3-10x slower with a dictionary; nullable columns and
+statistics on all cost ~50 ns a row; plain zstd without byte-stream split 37.4 bytes a row."""
 
 
 def timeseries_table(columns: dict[str, np.ndarray]):

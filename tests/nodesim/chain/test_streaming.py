@@ -106,11 +106,11 @@ def test_the_table_file_is_renamed_into_place_only_when_closed(tmp_path):
 
 
 def test_the_parquet_table_encodes_each_column_as_its_options_say(tmp_path):
-    """Dictionaries for the few-valued float columns (DICTIONARY_COLUMNS), delta for the integers, byte-stream split
-    for the rest; the values read back are the ones written."""
+    """A dictionary for the flag in DICTIONARY_COLUMNS, plain for PLAIN_COLUMNS, delta for the other integers,
+    byte-stream split for the other floats, each at its zstd level; the values read back are the ones written."""
     import pyarrow.parquet as pq
     from nodesim.chain.run_tables import TIMESERIES_COLUMNS
-    from nodesim.chain.streaming import DICTIONARY_COLUMNS, INTEGER_COLUMNS
+    from nodesim.chain.streaming import DICTIONARY_COLUMNS, FAST_ZSTD_COLUMNS, INTEGER_COLUMNS, PLAIN_COLUMNS
 
     rng = np.random.default_rng(4)
     n = 5000
@@ -123,9 +123,12 @@ def test_the_parquet_table_encodes_each_column_as_its_options_say(tmp_path):
     meta = pq.ParquetFile(tmp_path / "t.parquet").metadata.row_group(0)
     for i, k in enumerate(TIMESERIES_COLUMNS):
         encodings = set(meta.column(i).encodings)
-        want = ("RLE_DICTIONARY" if k in DICTIONARY_COLUMNS else "DELTA_BINARY_PACKED" if k in INTEGER_COLUMNS
-                else "BYTE_STREAM_SPLIT")
-        assert want in encodings, (k, encodings)
+        want = ("RLE_DICTIONARY" if k in DICTIONARY_COLUMNS else "PLAIN" if k in PLAIN_COLUMNS else
+                "DELTA_BINARY_PACKED" if k in INTEGER_COLUMNS else "BYTE_STREAM_SPLIT")
+        assert want in encodings and meta.column(i).compression == "ZSTD", (k, encodings)
+        if k in PLAIN_COLUMNS:
+            assert encodings <= {"PLAIN", "RLE"}, (k, encodings)  # no dictionary page
+    assert set(FAST_ZSTD_COLUMNS) <= set(TIMESERIES_COLUMNS) - set(INTEGER_COLUMNS)
     table = pq.read_table(tmp_path / "t.parquet")
     for k in TIMESERIES_COLUMNS:
         assert np.array_equal(table.column(k).to_numpy(), block[k], equal_nan=k not in INTEGER_COLUMNS), k
