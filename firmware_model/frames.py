@@ -150,6 +150,15 @@ def crc16(buf, n):
 
 
 @njit(cache=True, inline="always")
+def field_range(width, signed):
+    """(lo, hi): the values a field of ``width`` bytes holds, signed or not."""
+    bits = 8 * width
+    lo = -(np.int64(1) << (bits - 1)) if signed else np.int64(0)
+    hi = (np.int64(1) << (bits - 1)) - 1 if signed else (np.int64(1) << bits) - 1
+    return lo, hi
+
+
+@njit(cache=True, inline="always")
 def encode_frame(values, layout, kind, out):
     """Write one frame of type ``kind`` into ``out`` (uint8, the frame length) from ``values`` (int64, one per
     layout row).  Returns the number of saturated fields (>= 0), or ``-(1 + i)`` if field ``i`` has policy
@@ -159,8 +168,7 @@ def encode_frame(values, layout, kind, out):
     for i in range(layout.shape[0]):
         off, width, signed, policy = layout[i, 0], layout[i, 1], layout[i, 2], layout[i, 3]
         bits = 8 * width
-        lo = -(np.int64(1) << (bits - 1)) if signed else np.int64(0)
-        hi = (np.int64(1) << (bits - 1)) - 1 if signed else (np.int64(1) << bits) - 1
+        lo, hi = field_range(width, signed)
         v = values[i]
         if v < lo or v > hi:
             if policy == REJECT:
@@ -177,6 +185,37 @@ def encode_frame(values, layout, kind, out):
     out[n] = np.uint8(c & 0xFF)
     out[n + 1] = np.uint8(c >> 8)
     return n_sat
+
+
+@njit(cache=True, inline="always")
+def frame_status(values, layout):
+    """What :func:`encode_frame` returns for ``values``, without writing the frame: the number of saturated fields
+    (>= 0), or ``-(1 + i)`` for the first REJECT field ``i`` whose value does not fit."""
+    n_sat = 0
+    for i in range(layout.shape[0]):
+        lo, hi = field_range(layout[i, 1], layout[i, 2])
+        if values[i] < lo or values[i] > hi:
+            if layout[i, 3] == REJECT:
+                return -(1 + i)
+            if layout[i, 3] == SATURATE:
+                n_sat += 1
+    return n_sat
+
+
+@njit(cache=True, inline="always")
+def field_value(v, layout, i):
+    """What field ``i`` (layout row ``i``) of a frame :func:`encode_frame` wrote from ``v`` decodes to
+    (:func:`decode_field`), without the bytes: ``v`` saturated into the field (SATURATE), else its low bits,
+    sign-extended for a signed field (WRAP; ``v`` itself for a REJECT field's value that fits)."""
+    width, signed = layout[i, 1], layout[i, 2]
+    lo, hi = field_range(width, signed)
+    if layout[i, 3] == SATURATE and (v < lo or v > hi):
+        return lo if v < lo else hi
+    bits = 8 * width
+    u = v & ((np.int64(1) << bits) - 1)
+    if signed and u >= (np.int64(1) << (bits - 1)):
+        u -= np.int64(1) << bits
+    return u
 
 
 @njit(cache=True, inline="always")
@@ -236,6 +275,22 @@ def estimate_words(frame):
     compiled engine's receiver, whose CRC verdict phase 1 has already made (the frames it takes passed the check, or
     are the errors it let through), ~10x cheaper than :func:`decode_frame` on the drilling day."""
     return decode_field(frame, ESTIMATE_LAYOUT, EST_YAW), decode_field(frame, ESTIMATE_LAYOUT, EST_PYY)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def estimate_status(node, seq, t_read_us, yaw, p_yy, rate, bias, values):
+    """What :func:`encode_estimate` returns for these words (:func:`frame_status`), without writing the frame;
+    ``values`` (7,) int64 is the work row."""
+    values[0], values[1], values[2], values[3] = node, seq, t_read_us, yaw
+    values[4], values[5], values[6] = p_yy, rate, bias
+    return frame_status(values, ESTIMATE_LAYOUT)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def estimate_words_sent(yaw, p_yy):
+    """The (yaw, P_yy) words :func:`estimate_words` reads back from the frame :func:`encode_estimate` made of the
+    words ``yaw``, ``p_yy`` (:func:`field_value`), for a frame it sent (status >= 0), without the bytes."""
+    return field_value(yaw, ESTIMATE_LAYOUT, EST_YAW), field_value(p_yy, ESTIMATE_LAYOUT, EST_PYY)
 
 
 @njit(cache=True)

@@ -10,6 +10,7 @@ import binascii
 
 import numpy as np
 import pytest
+from numba import njit
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -253,6 +254,58 @@ def test_wrap_saturate_and_reject_policies():
         fr.encode(fr.ENC_REPLY, [[0, 0, 0, 0, -(1 << 31) - 1]])
     with pytest.raises(FirmwareError, match="field cluster"):
         fr.encode(fr.SURVEY, [[0, 0, -1, 0, 0, 0, 0, 0]])
+
+
+@njit(cache=False)
+def _statuses_and_fields(values, layout, kind, n_bytes):
+    """Per row of ``values``: encode_frame's status and decoded fields, frame_status and field_value."""
+    R, F = values.shape
+    got = np.zeros((R, 2 + 2 * F), np.int64)
+    out = np.zeros(n_bytes, np.uint8)
+    for r in range(R):
+        got[r, 0] = fr.encode_frame(values[r], layout, kind, out)
+        got[r, 1] = fr.frame_status(values[r], layout)
+        for i in range(F):
+            got[r, 2 + i] = fr.decode_field(out, layout, i)
+            got[r, 2 + F + i] = fr.field_value(values[r, i], layout, i)
+    return got
+
+
+@pytest.mark.parametrize("kind", [fr.ESTIMATE, fr.SURVEY, fr.ENC_REQUEST, fr.ENC_REPLY])
+def test_status_and_field_values_without_the_bytes_equal_the_encoded_frame(kind):
+    """frame_status = encode_frame's status, and field_value = the decoded field of every frame it sent (status
+    >= 0), for values in, at the edges of and outside every field's range (wrap, saturate, reject); the
+    estimate helpers are those for the estimate layout (the compiled engine's windows send no bytes)."""
+    layout, F = fr.LAYOUTS[kind], len(fr.FIELDS[kind])
+    rng = np.random.default_rng(kind)
+    def draw(width, signed, policy):
+        lo, hi = (-(1 << (8 * width - 1)), (1 << (8 * width - 1)) - 1) if signed else (0, (1 << (8 * width)) - 1)
+        if rng.random() < (0.03 if policy == fr.REJECT else 0.4):  # outside the field
+            return rng.choice([lo - 1, hi + 1, 3 * hi + 7, lo - 3 * hi - 5, rng.integers(hi + 1, 1 << 40)])
+        return rng.choice([lo, lo + 1, 0, hi - 1, hi, rng.integers(lo, hi + 1)])
+
+    values = np.array([[draw(*layout[i, 1:4]) for i in range(F)] for _ in range(3000)], np.int64)
+    got = _statuses_and_fields(values, layout, kind, fr.LENGTHS[kind])
+    assert np.array_equal(got[:, 0], got[:, 1])
+    sent = got[:, 0] >= 0
+    assert 100 < sent.sum() < len(values) - 100  # both sent and rejected frames
+    assert np.array_equal(got[sent, 2:2 + F], got[sent, 2 + F:])
+    if kind == fr.ESTIMATE:
+        work = np.zeros(7, np.int64)
+        for row, decoded in zip(values[:500], got[:500]):
+            assert _estimate_status(*row, work) == decoded[0]
+            if decoded[0] >= 0:  # the yaw and P_yy words the receiver reads back from the bytes
+                assert _estimate_words_sent(row[3], row[4]) == (decoded[2 + fr.EST_YAW], decoded[2 + fr.EST_PYY])
+
+
+@njit(cache=False)
+def _estimate_status(node, seq, t, yaw, p_yy, rate, bias, work):
+    return fr.estimate_status(node, seq, t, yaw, p_yy, rate, bias, work)
+
+
+@njit(cache=False)
+def _estimate_words_sent(yaw, p_yy):
+    return fr.estimate_words_sent(yaw, p_yy)
 
 
 def test_bad_shapes_and_kinds_raise():

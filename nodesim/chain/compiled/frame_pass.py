@@ -12,7 +12,9 @@ Phase 2 (:mod:`.engine`) runs the nodes top down; around each node's firmware lo
   running tick with ``chain.forward = "every_tick"``) from the words the firmware recorded
   (:func:`firmware_model.frames.encode_estimate`: node id, seq = ticks since power-up, t_read_us, yaw, P_yy, rate,
   bias), the bytes the SimPy engine sends.
-Two short loops of their own next to the firmware loop (which only records the rate and bias words it sends).  On
+Two short loops of their own next to the firmware loop (which only records the rate and bias words it sends).  A
+run in windows (:mod:`.time_windows`, never with bit errors) makes no bytes: :func:`receive_words` takes the words a
+sent frame carries, :func:`check_sends` checks that they fit it (the same words and errors, tested against these).  On
 node 400 of the drilling day's first hour (6,795 ticks, 3,370 frames sent, as many taken): receiving ~0.02 ms
 (~4 ns a tick; decoding every field and the CRC took ~0.11 ms), sending ~0.08 ms (~24 ns a frame, most of it the
 CRC; ~0.11 ms with the CRC two bytes a step), beside ~0.42 ms of firmware ticks.  Numba caches these loops with the
@@ -54,6 +56,38 @@ def send_frames(node_id, first_tick, every_tick, running, k_first, k_end, k_base
             if applied[r, k] or (every_tick and running[k]):
                 s = fr.encode_estimate(node_id, k_base + k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
                                        var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r], frames[r, k])
+                worst = min(worst, s)
+    return worst
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def receive_words(src_node, src_tick, k_first, k_end, up_yaw_raw, up_var_raw, up_first, rx_yaw_raw, rx_var_raw,
+                  r_first, r_end):
+    """:func:`receive_frames` without the bytes, for a run whose frames arrive as they were sent (no
+    ``mac.bit_errors``): ``rx_*_raw[r, k]`` = the words the sender's frame of its tick j carries
+    (:func:`firmware_model.frames.estimate_words_sent` of its yaw and P_yy words ``up_*_raw[s - 1][r, j]``, row
+    j - ``up_first[s - 1]``): the words :func:`firmware_model.frames.estimate_words` reads from the bytes."""
+    for r in range(r_first, r_end):
+        for k in range(k_first, k_end):
+            s = src_node[r, k]
+            if s > 0:
+                j = src_tick[r, k] - up_first[s - 1]
+                rx_yaw_raw[r, k], rx_var_raw[r, k] = fr.estimate_words_sent(up_yaw_raw[s - 1][r, j],
+                                                                           up_var_raw[s - 1][r, j])
+
+
+@njit(cache=True, _nrt=False, nogil=True)
+def check_sends(node_id, first_tick, every_tick, running, k_first, k_end, k_base, applied, t, yaw_raw, var_raw,
+                rate_raw, bias_raw, words, r_first, r_end) -> int:
+    """:func:`send_frames`' status without the bytes (:func:`firmware_model.frames.estimate_status` of every frame
+    it would send), for a run whose receivers take the words (:func:`receive_words`): the same ticks, the same
+    words, ~5 ns a frame instead of ~24."""
+    worst = 0
+    for r in range(r_first, r_end):
+        for k in range(k_first, k_end):
+            if applied[r, k] or (every_tick and running[k]):
+                s = fr.estimate_status(node_id, k_base + k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
+                                       var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r])
                 worst = min(worst, s)
     return worst
 

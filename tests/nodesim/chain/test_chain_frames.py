@@ -89,3 +89,48 @@ def test_a_frame_longer_than_the_radio_takes_is_refused():
     assert MacSection().frame_bits(fr.SURVEY_BYTES) == 56 + 200
     with pytest.raises(NodesimError, match="does not fit the MAC"):
         MacSection().frame_bits(256)
+
+
+@pytest.mark.parametrize("every_tick", [False, True])
+def test_a_run_in_windows_takes_the_words_the_bytes_would_carry(every_tick):
+    """A run in windows makes no frame bytes (no bit errors there): the words its receivers take
+    (frame_pass.receive_words) equal those decoded from the frames send_frames makes (frame_pass.receive_frames), and
+    check_sends gives send_frames' status, also where a word does not fit its field, which check_sent names."""
+    from nodesim.chain.compiled import frame_pass as fp
+    from nodesim.errors import NodesimError
+
+    rng = np.random.default_rng(11)
+    R, K = 3, 400
+    applied, running = rng.random((R, K)) < 0.5, rng.random(K) < 0.8
+    t = np.arange(K) / 1.9 + 40_000.0  # past the 2^32 us the frame's timer wraps at
+    yaw, var, rate, bias = (rng.integers(-2 ** 31, 2 ** 31, (R, K)) for _ in range(4))
+    yaw[0, :50] += 2 ** 33  # a binary angle beyond 32 bits: the frame's wrap
+    words = np.zeros((R, 7), np.int64)
+
+    def statuses(var_raw):
+        frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
+        sent = fp.send_frames(7, 3, every_tick, running, 5, K, 70_000, applied, t, yaw, var_raw, rate, bias, frames,
+                              words, 0, R)
+        return sent, fp.check_sends(7, 3, every_tick, running, 5, K, 70_000, applied, t, yaw, var_raw, rate, bias,
+                                    words, 0, R), frames
+
+    sent, checked, frames = statuses(var)
+    assert sent == checked == 0
+    src = np.where(rng.random((R, K)) < 0.6, rng.integers(1, 3, (R, K)), 0).astype(np.int8)
+    src[:, :5] = 0  # only ticks that sent a frame are taken
+    taken = (applied | (every_tick & running)[None, :])
+    src[~taken] = 0
+    tick = np.tile(np.arange(K, dtype=np.int32), (R, 1))
+    from_bytes = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    from_words = np.zeros((R, K), np.int64), np.zeros((R, K), np.int64)
+    first = np.zeros(2, np.int64)
+    fp.receive_frames(src, tick, 0, K, (frames, frames), first, *from_bytes, 0, R)
+    fp.receive_words(src, tick, 0, K, (yaw, yaw), (var, var), first, *from_words, 0, R)
+    assert (src > 0).sum() > 300 and (yaw[0, :50] != from_words[0][0, :50])[src[0, :50] > 0].all()
+    assert np.array_equal(from_bytes[0], from_words[0]) and np.array_equal(from_bytes[1], from_words[1])
+    too_wide = var.copy()
+    too_wide[1, np.flatnonzero(taken[1])[-1]] = 2 ** 31  # P_yy is a signed 32-bit field that rejects
+    sent, checked, _ = statuses(too_wide)
+    assert sent == checked == -(1 + fr.EST_PYY)
+    with pytest.raises(NodesimError, match="node 7: its P_yy word does not fit"):
+        fp.check_sent(checked, 7)
