@@ -81,7 +81,8 @@ def check_sends(node_id, first_tick, every_tick, running, k_first, k_end, k_base
                 rate_raw, bias_raw, words, r_first, r_end) -> int:
     """:func:`send_frames`' status without the bytes (:func:`firmware_model.frames.estimate_status` of every frame
     it would send), for a run whose receivers take the words (:func:`receive_words`): the same ticks, the same
-    words, ~5 ns a frame instead of ~24."""
+    words (a synthetic window of 80 k ticks sending at half of them at random, 2026-12-06: 12 ns a tick, and
+    with :func:`receive_words` 20 ns against 46 for :func:`send_frames` and :func:`receive_frames`)."""
     worst = 0
     for r in range(r_first, r_end):
         for k in range(k_first, k_end):
