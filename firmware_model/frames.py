@@ -246,6 +246,13 @@ ESTIMATE_LAYOUT = LAYOUTS[ESTIMATE]
 EST_YAW, EST_PYY = field_index(ESTIMATE, "yaw"), field_index(ESTIMATE, "P_yy")  # columns of the decoded words
 
 
+@njit(cache=True, _nrt=False, inline="always")
+def estimate_values(node, seq, t_read_us, yaw, p_yy, rate, bias, values) -> None:
+    """The estimate frame's field values in wire order (:data:`FIELDS`) into the work row ``values`` (7,) int64."""
+    values[0], values[1], values[2], values[3] = node, seq, t_read_us, yaw
+    values[4], values[5], values[6] = p_yy, rate, bias
+
+
 @njit(cache=True, _nrt=False)  # allocation-free: no reference counting around the call, whichever caller compiles it
 def encode_estimate(node, seq, t_read_us, yaw, p_yy, rate, bias, values, out):
     """The estimate frame of one lane into ``out`` (27 uint8) through :func:`encode_frame`: node id, the sender's
@@ -253,8 +260,7 @@ def encode_estimate(node, seq, t_read_us, yaw, p_yy, rate, bias, values, out):
     (yaw binary angle, P_yy, bias-corrected rate, bias); ``values`` (7,) int64 is the work row.  Both engines
     send their estimates through it (the SimPy engine by :func:`encode_estimates`).  Returns
     :func:`encode_frame`'s status (< 0: a word does not fit its field, the frame must not be sent)."""
-    values[0], values[1], values[2], values[3] = node, seq, t_read_us, yaw
-    values[4], values[5], values[6] = p_yy, rate, bias
+    estimate_values(node, seq, t_read_us, yaw, p_yy, rate, bias, values)
     return encode_frame(values, ESTIMATE_LAYOUT, ESTIMATE, out)
 
 
@@ -281,8 +287,7 @@ def estimate_words(frame):
 def estimate_status(node, seq, t_read_us, yaw, p_yy, rate, bias, values):
     """What :func:`encode_estimate` returns for these words (:func:`frame_status`), without writing the frame;
     ``values`` (7,) int64 is the work row."""
-    values[0], values[1], values[2], values[3] = node, seq, t_read_us, yaw
-    values[4], values[5], values[6] = p_yy, rate, bias
+    estimate_values(node, seq, t_read_us, yaw, p_yy, rate, bias, values)
     return frame_status(values, ESTIMATE_LAYOUT)
 
 

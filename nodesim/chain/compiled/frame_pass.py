@@ -14,7 +14,7 @@ Phase 2 (:mod:`.engine`) runs the nodes top down; around each node's firmware lo
   bias), the bytes the SimPy engine sends.
 Two short loops of their own next to the firmware loop (which only records the rate and bias words it sends).  A
 run in windows (:mod:`.time_windows`, never with bit errors) makes no bytes: :func:`receive_words` takes the words a
-sent frame carries, :func:`check_sends` checks that they fit it (the same words and errors, tested against these).  On
+sent frame carries, :func:`send_frames` without frame ticks only checks that they fit it (the same words and errors, tested).  On
 node 400 of the drilling day's first hour (6,795 ticks, 3,370 frames sent, as many taken): receiving ~0.02 ms
 (~4 ns a tick; decoding every field and the CRC took ~0.11 ms), sending ~0.08 ms (~24 ns a frame, most of it the
 CRC; ~0.11 ms with the CRC two bytes a step), beside ~0.42 ms of firmware ticks.  Numba caches these loops with the
@@ -49,13 +49,22 @@ def send_frames(node_id, first_tick, every_tick, running, k_first, k_end, k_base
     """``frames[r, k]`` = the estimate frame sent at tick k (k_first .. k_end - 1, where ``applied[r, k]``, or
     ``every_tick`` and the node ran that tick (not holding)); the arrays begin at the node's tick ``k_base`` (a
     window of its ticks: its seq is k_base + k - first_tick); returns the lowest encoder status (< 0: a word did
-    not fit its field)."""
+    not fit its field).  ``frames`` with no ticks (R, 0, 27): no bytes, the same status
+    (:func:`firmware_model.frames.estimate_status`), for a run whose receivers take the words
+    (:func:`receive_words`): on a synthetic window of 80 k ticks sending at half of them at random (2026-12-06),
+    12 ns a tick, and with :func:`receive_words` 20 ns against 46 with the bytes and :func:`receive_frames`."""
     worst = 0
+    make_bytes = frames.shape[1] > 0
     for r in range(r_first, r_end):
         for k in range(k_first, k_end):
             if applied[r, k] or (every_tick and running[k]):
-                s = fr.encode_estimate(node_id, k_base + k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
-                                       var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r], frames[r, k])
+                seq, t_us = k_base + k - first_tick, np.int64(np.rint(t[k] * 1e6))
+                if make_bytes:
+                    s = fr.encode_estimate(node_id, seq, t_us, yaw_raw[r, k], var_raw[r, k], rate_raw[r, k],
+                                           bias_raw[r, k], words[r], frames[r, k])
+                else:
+                    s = fr.estimate_status(node_id, seq, t_us, yaw_raw[r, k], var_raw[r, k], rate_raw[r, k],
+                                           bias_raw[r, k], words[r])
                 worst = min(worst, s)
     return worst
 
@@ -74,23 +83,6 @@ def receive_words(src_node, src_tick, k_first, k_end, up_yaw_raw, up_var_raw, up
                 j = src_tick[r, k] - up_first[s - 1]
                 rx_yaw_raw[r, k], rx_var_raw[r, k] = fr.estimate_words_sent(up_yaw_raw[s - 1][r, j],
                                                                            up_var_raw[s - 1][r, j])
-
-
-@njit(cache=True, _nrt=False, nogil=True)
-def check_sends(node_id, first_tick, every_tick, running, k_first, k_end, k_base, applied, t, yaw_raw, var_raw,
-                rate_raw, bias_raw, words, r_first, r_end) -> int:
-    """:func:`send_frames`' status without the bytes (:func:`firmware_model.frames.estimate_status` of every frame
-    it would send), for a run whose receivers take the words (:func:`receive_words`): the same ticks, the same
-    words (a synthetic window of 80 k ticks sending at half of them at random, 2026-12-06: 12 ns a tick, and
-    with :func:`receive_words` 20 ns against 46 for :func:`send_frames` and :func:`receive_frames`)."""
-    worst = 0
-    for r in range(r_first, r_end):
-        for k in range(k_first, k_end):
-            if applied[r, k] or (every_tick and running[k]):
-                s = fr.estimate_status(node_id, k_base + k - first_tick, np.int64(np.rint(t[k] * 1e6)), yaw_raw[r, k],
-                                       var_raw[r, k], rate_raw[r, k], bias_raw[r, k], words[r])
-                worst = min(worst, s)
-    return worst
 
 
 def check_sent(status: int, node_id: int) -> None:

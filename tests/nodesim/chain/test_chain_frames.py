@@ -95,7 +95,8 @@ def test_a_frame_longer_than_the_radio_takes_is_refused():
 def test_a_run_in_windows_takes_the_words_the_bytes_would_carry(every_tick):
     """A run in windows makes no frame bytes (no bit errors there): the words its receivers take
     (frame_pass.receive_words) equal those decoded from the frames send_frames makes (frame_pass.receive_frames), and
-    check_sends gives send_frames' status, also where a word does not fit its field, which check_sent names."""
+    send_frames into no frame ticks (no bytes) gives its status with the bytes, also where a word does not fit its
+    field, which check_sent names."""
     from nodesim.chain.compiled import frame_pass as fp
     from nodesim.errors import NodesimError
 
@@ -111,8 +112,8 @@ def test_a_run_in_windows_takes_the_words_the_bytes_would_carry(every_tick):
         frames = np.zeros((R, K, fr.ESTIMATE_BYTES), np.uint8)
         sent = fp.send_frames(7, 3, every_tick, running, 5, K, 70_000, applied, t, yaw, var_raw, rate, bias, frames,
                               words, 0, R)
-        return sent, fp.check_sends(7, 3, every_tick, running, 5, K, 70_000, applied, t, yaw, var_raw, rate, bias,
-                                    words, 0, R), frames
+        return sent, fp.send_frames(7, 3, every_tick, running, 5, K, 70_000, applied, t, yaw, var_raw, rate, bias,
+                                    np.zeros((R, 0, fr.ESTIMATE_BYTES), np.uint8), words, 0, R), frames
 
     sent, checked, frames = statuses(var)
     assert sent == checked == 0
