@@ -367,7 +367,7 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
     ``net.ground`` of the surveys it sent at those ticks)."""
     x = nodes[n]
     node, R = net.nodes[n], net.R
-    t = np.array(node.t_s[k0:k1])  # (a copy: the tick table's pages leave memory every few steps)
+    t = ev.tick_times(net.tick_table, net.tick_clock(), n, k0, k1)  # (not a view: the table's pages leave memory)
     W = k1 - k0
     codes = np.array(plan[n, k0:k1])
     c, att = sensed  # (count sums, true attitude) of the window's ticks
