@@ -135,17 +135,6 @@ def fill_normals_rows(states: np.ndarray, counts: np.ndarray, out: np.ndarray) -
 
 
 @njit(cache=True, nogil=True)
-def skip_normals(states: np.ndarray, count: int) -> None:
-    """Advance every stream of ``states`` (M, 4) in place past its next ``count`` ``standard_normal()`` draws (a
-    normal takes one or more steps of the generator, so they are drawn and dropped: no jump ahead)."""
-    for i in range(states.shape[0]):
-        hi, lo, inc_hi, inc_lo = states[i, 0], states[i, 1], states[i, 2], states[i, 3]
-        for _ in range(count):
-            _, hi, lo = normal(hi, lo, inc_hi, inc_lo)
-        states[i, 0], states[i, 1] = hi, lo
-
-
-@njit(cache=True, nogil=True)
 def fill_uniforms(states: np.ndarray, rows: np.ndarray, buffer: np.ndarray, start: np.ndarray,
                   stop: np.ndarray) -> None:
     """``buffer[start[j]:stop[j]]`` = the next ``random()`` draws of stream ``rows[j]`` (advanced in place)."""

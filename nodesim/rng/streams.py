@@ -49,7 +49,7 @@ from nodesim import threads
 from nodesim.rng import pcg64
 
 SENSOR_STREAMS: tuple[str, ...] = ("gyro", "accel", "encoder", "magnetometer", "clock", "tilt", "gyro_samples",
-                                   "accel_samples", "reference")
+                                   "accel_samples", "reference", "gyro_bias")
 """Per-node stream names, in spawn order.  Append new names at the end only."""
 
 POOL_WORDS = 4

@@ -21,7 +21,8 @@ Each reading is quantised to int16, clipped at full scale (counted) and summed p
 
 Random streams (:class:`nodesim.rng.streams.RunStreams`, per node, one generator per realization):
   ``tilt``: a, b (2 normals);
-  ``gyro``: the Gauss-Markov drive (K, 3) when its sigma is > 0, then (tick_sum) the tick-sum normals (K, 3);
+  ``gyro_bias``: the Gauss-Markov drive (K, 3) when its sigma is > 0;
+  ``gyro``: (tick_sum) the tick-sum normals (K, 3);
   ``accel``: (tick_sum) the tick-sum normals (K, 3);
   ``gyro_samples`` / ``accel_samples``: the per-sample normals (n_k, 3) of every tick read per sample, in tick order.
 The tick-sum normals of every tick are drawn (used or not), so the fallback of one tick moves no other draw.
@@ -183,9 +184,10 @@ class NodeImuStream:
     Carried from window to window, per realization: the PCG64 states of the streams (module docstring), the
     Gauss-Markov bias of the last tick (x_k = phi x_(k-1) + sigma sqrt(1 - phi^2) w_k goes on from it), and, for a
     node whose samples the shared truth does not cover, its own truth's prefix sums (:class:`SampleTruth`
-    ``start_sums``).  The "gyro" stream holds the node's whole Gauss-Markov drive (3 K normals) before its tick-sum
-    normals, so a node read in more than one window finds where those start once, by drawing and dropping the drive
-    (:func:`nodesim.rng.pcg64.skip_normals`); one window over all ticks draws the drive and goes straight on.  Which
+    ``start_sums``).  The Gauss-Markov drive has a stream of its own ("gyro_bias"), so a window's tick-sum normals
+    go on in the "gyro" stream from where the window before left it.  (Until 2026-12-06 the drive came first in the
+    "gyro" stream, and a node read in more than one window found where its tick-sum normals started by drawing and
+    dropping its whole drive, 3 K normals: ~3 s of CPU for the drilling day, beside phase 1.)  Which
     ticks fall back to per-sample sums does not depend on the window: the first draw's bound (the truth's largest
     |u|) only decides whether the per-tick bounds are looked at, and those decide (:func:`tick_counts.valid_one` is
     monotone in the bound)."""
@@ -203,8 +205,8 @@ class NodeImuStream:
         self.b_on, self.b_res = imu.turn_on_bias_rad_s * sg, imu.residual_bias_rad_s * sg
         phi = math.exp(-dt_s / imu.bias_tau_s)
         self.gm = (imu.bias_instability_rad_s * sg, imu.bias_instability_rad_s * sg * math.sqrt(1.0 - phi * phi), phi)
-        self.z_gm = streams.sensor_states(R, node_index, "gyro")  # the Gauss-Markov drive, then the tick-sum normals
-        self.z_g = None  # the tick-sum normals' states (found when the first window is not all ticks)
+        self.z_gm = streams.sensor_states(R, node_index, "gyro_bias")  # the Gauss-Markov drive
+        self.z_g = streams.sensor_states(R, node_index, "gyro")  # the tick-sum normals
         self.z_a = streams.sensor_states(R, node_index, "accel")
         self.streams, self.z_samples = streams, {}  # the per-sample streams' states, made when first drawn from
         self.gm_last = np.zeros((R, 3))  # the Gauss-Markov bias of the last tick read
@@ -221,9 +223,6 @@ class NodeImuStream:
                              f"(of {self.t_s.size})")
         self.k_next = k1
         imu, R, K = self.imu, self.R, k1 - k0
-        whole = k0 == 0 and k1 == self.t_s.size
-        if not whole:
-            self.find_tick_sums()
         t_s = self.t_s[k0:k1]
         first, n = tc.sample_windows(self.t_s[max(k0 - 1, 0):k1], self.dt_s, imu.sample_rate_hz)
         first, n = (first[1:], n[1:]) if k0 > 0 else (first, n)  # tick k0 - 1 only gives tick k0's first sample
@@ -251,16 +250,15 @@ class NodeImuStream:
                     imu.gyro_sigma_lsb, imu.accel_sigma_lsb, g_lo, g_hi, a_lo, a_hi)
 
             def draw(umax_gz: np.ndarray, umax_a: np.ndarray) -> tuple:  # ranges of realizations on threads
-                z = (self.z_gm.copy(), (self.z_gm if whole else self.z_g).copy(), self.z_a.copy(), self.gm_last.copy())
-                threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, *z, k0 == 0, whole, gyro, accel,
+                z = (self.z_gm.copy(), self.z_g.copy(), self.z_a.copy(), self.gm_last.copy())
+                threads.map_chunks(lambda r0, r1: _tick_sums(umax_gz, umax_a, *sums, *z, k0 == 0, gyro, accel,
                                                              g_sel, a_sel, gm_z, r0, r1), R)
                 return z  # a second draw reads the same normals: the streams advance from the last one
             z = draw(np.broadcast_to(truth.umax[0][2], (K,)), np.broadcast_to(truth.umax[1], (K, 3)))  # views
             if g_sel.any() or a_sel.any():
                 z = draw(np.maximum.reduceat(np.abs(readings()[0]), starts()),
                          np.ascontiguousarray(np.maximum.reduceat(np.abs(readings()[1]), starts(), axis=0)))
-            self.z_gm, z_g, self.z_a, self.gm_last = z
-            self.z_g = None if whole else z_g
+            self.z_gm, self.z_g, self.z_a, self.gm_last = z
         else:
             g_sel = a_sel = np.ones((R, K), dtype=bool)
             gyro, accel = np.zeros((R, K, 3), np.int64), np.zeros((R, K, 3), np.int64)
@@ -288,18 +286,6 @@ class NodeImuStream:
                              lambda: self._sample_states("accel_samples"))
         return NodeCounts(gyro, accel, n.astype(np.int64), g_clip, a_clip, true_bias, self.tilt,
                           int(g_sel.sum() + a_sel.sum()))
-
-    def find_tick_sums(self) -> None:
-        """Where the tick-sum normals start in the "gyro" stream, after the node's whole Gauss-Markov drive (3 K
-        normals, drawn and dropped: ~3 ms a node of the drilling day): found once, for a node read in more than one
-        window, by :meth:`counts` at its first window or before it by anyone (the run in windows does it for every
-        node while phase 1 is still under way)."""
-        if self.imu.sampling != "tick_sum" or self.z_g is not None:
-            return
-        z_g = self.z_gm.copy()
-        drive = 3 * self.t_s.size if self.gm[0] != 0.0 else 0
-        threads.map_chunks(lambda r0, r1: pcg64.skip_normals(z_g[r0:r1], drive), self.R)
-        self.z_g = z_g
 
     def _sample_states(self, stream: str) -> np.ndarray:
         """(R, 4): the PCG64 states of the per-sample stream ``stream`` where its next draw is (made at the first)."""
@@ -356,7 +342,7 @@ def _gauss_markov_draw(hi, lo, inc_hi, inc_lo, sigma, drive_sigma, phi, prev, fi
 
 @njit(cache=True)
 def _gauss_markov_bias(state, sigma, drive_sigma, phi, prev, first, K):
-    """(K, 3) :func:`_gauss_markov_draw` of one realization's "gyro" stream at PCG64 ``state`` (4,)."""
+    """(K, 3) :func:`_gauss_markov_draw` of one realization's "gyro_bias" stream at PCG64 ``state`` (4,)."""
     out = np.empty((K, 3))
     _gauss_markov_draw(state[0], state[1], state[2], state[3], sigma, drive_sigma, phi, prev, first, out)
     return out
@@ -376,7 +362,7 @@ def _gauss_markov_z(states, sigma, drive_sigma, phi, last, first, gm_z, r_first,
 
 @njit(cache=True, nogil=True)
 def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma, gm_drive, gm_phi, n, n_after,
-               sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi, z_gm, z_g, z_a, gm_last, gm_first, chained, gyro, accel,
+               sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi, z_gm, z_g, z_a, gm_last, gm_first, gyro, accel,
                g_sel, a_sel, gm_z, r_first, r_end) -> None:
     """The direct tick-sum draws of every (realization r, tick k, axis i) and which ticks must be read per sample
     (:mod:`nodesim.sensors.tick_counts`), from the tick sums of the noise-free z-gyro (``usum_gz`` (K,)) and
@@ -389,10 +375,10 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma,
     (u_g = (0, 0, usum_gz)); a tick is drawn directly while every axis' bound is valid (``valid_one``); the sum
     round_he(mean + spread_k z), spread_k = sqrt(n_k (sigma^2 + 1/12)) (:func:`~.tick_counts.draw_one`, its spread
     once per tick).  The
-    normals z, in order 3 k + i: realization r's "gyro" stream after the Gauss-Markov drive b_gm
-    (:func:`_gauss_markov_draw` from the states ``z_gm``, going on from ``gm_last`` unless ``gm_first``; its z axis
-    into ``gm_z``), from where the drive ends when ``chained`` (the window is all of the node's ticks), else from
-    the states ``z_g``, and its "accel" stream (``z_a``); the states and ``gm_last`` advanced in place.  Realizations ``r_first`` .. ``r_end - 1``.  A block of TICK_SUM_BLOCK ticks' normals is drawn
+    normals z, in order 3 k + i: realization r's "gyro" stream (the states ``z_g``) and its "accel" stream
+    (``z_a``); the Gauss-Markov bias b_gm from its "gyro_bias" stream (:func:`_gauss_markov_draw` from the states
+    ``z_gm``, going on from ``gm_last`` unless ``gm_first``; its z axis into ``gm_z``); the states and ``gm_last``
+    advanced in place.  Realizations ``r_first`` .. ``r_end - 1``.  A block of TICK_SUM_BLOCK ticks' normals is drawn
     first, both streams in one tight loop (:func:`_two_streams_normals`), then used: ~20 % faster than drawing
     them inside the loop below (the generator's code and the arithmetic then share registers and branches), the
     same numbers; a block, not the realization's 6 K normals at once, so that they are still in the cache when
@@ -408,12 +394,10 @@ def _tick_sums(umax_gz, umax_a, usum_gz, usum_a, T, gain, b_on, b_res, gm_sigma,
     B = max(1, min(K, TICK_SUM_BLOCK))
     w_g, w_a = np.empty(3 * B), np.empty(3 * B)  # a block of ticks' normals, in stream order 3 k + i
     for r in range(r_first, r_end):
-        g_inc_hi, g_inc_lo = z_gm[r, 2], z_gm[r, 3]  # the drive and the tick-sum normals: one stream
+        g_hi_s, g_lo_s, g_inc_hi, g_inc_lo = z_g[r, 0], z_g[r, 1], z_g[r, 2], z_g[r, 3]
         a_hi_s, a_lo_s, a_inc_hi, a_inc_lo = z_a[r, 0], z_a[r, 1], z_a[r, 2], z_a[r, 3]
-        m_hi, m_lo = _gauss_markov_draw(z_gm[r, 0], z_gm[r, 1], g_inc_hi, g_inc_lo, gm_sigma, gm_drive, gm_phi,
-                                        gm_last[r], gm_first, gm)
-        z_gm[r, 0], z_gm[r, 1] = m_hi, m_lo
-        g_hi_s, g_lo_s = (m_hi, m_lo) if chained else (z_g[r, 0], z_g[r, 1])
+        z_gm[r, 0], z_gm[r, 1] = _gauss_markov_draw(z_gm[r, 0], z_gm[r, 1], z_gm[r, 2], z_gm[r, 3], gm_sigma, gm_drive,
+                                                    gm_phi, gm_last[r], gm_first, gm)
         gm_z[r] = gm[:, 2]
         gm_last[r] = gm[K - 1]
         for k0 in range(0, K, B):

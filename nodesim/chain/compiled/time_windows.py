@@ -23,15 +23,13 @@ come window by window (node, then time, inside a window).  A window starts once 
 final: with more than one thread, phase 1 runs on a thread of its own beside the windows (:mod:`.phase_one`; the
 drilling day's second half of phase 1 beside its first window: 67.6 / 71.0 s against 72.1 / 74.4 s for phase 1
 first, whole processes interleaved, 2026-12-06); meanwhile the main thread makes every node's carried state
-(:class:`_Node`, with its tick-sum normals' start, ~3 ms a node of the day:
-:meth:`~nodesim.sensors.chain_imu.NodeImuStream.find_tick_sums`) on the core phase 1 leaves idle.  Covered: the
+(:class:`_Node`) on the core phase 1 leaves idle.  Covered: the
 fixed-point 2-state firmware without ``mac.bit_errors`` (:func:`windowed`), the drilling day's; other runs go node by
 node.
 """
 
 from __future__ import annotations
 
-import bisect
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
@@ -184,13 +182,10 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
     surveys = list(net.ground)  # each set to its frame as it is made; grows window by window
 
     def prepare() -> None:  # every node's carried state, while phase 1 makes the first window's records final
-        edges = window_edges(s.simulation.duration_s)
         for n in sorted(range(N), key=lambda i: net.nodes[i].t_s[0]):  # the first window's nodes first
             t = net.nodes[n].t_s
             nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span, stream.node_windows(net.nodes[n].node_id, t, R),
                              net.node_ticks * R)
-            if bisect.bisect_right(edges, t[0]) != bisect.bisect_right(edges, t[-1]):  # read in more than one window
-                nodes[n].imu.find_tick_sums()
 
     try:
         steps = _steps(net, K, sensors, phase1, senders, surveys, prepare)

@@ -22,14 +22,14 @@ def test_gauss_markov_kernel_is_the_numpy_recursion_bit_for_bit(seed, K, sigma, 
     """The fused drive (PCG64 normals drawn in the kernel) equals noise.gauss_markov_from_normals on the same
     stream's normals, along the ticks, for every axis; sigma = 0 draws nothing."""
     streams = RunStreams(seed=seed, n_nodes=1)
-    state = streams.sensor_states(1, 0, "gyro")
+    state = streams.sensor_states(1, 0, "gyro_bias")
     phi = math.exp(-1.0 / tau_ticks)
     got = chain_imu._gauss_markov_bias(state[0].copy(), sigma, sigma * math.sqrt(1.0 - phi * phi), phi, np.zeros(3), True,
                                        K)
     if sigma == 0.0:
         assert not got.any()
         return
-    w = streams.sensor_normals(1, 0, "gyro", 3 * K).reshape(K, 3)
+    w = streams.sensor_normals(1, 0, "gyro_bias", 3 * K).reshape(K, 3)
     want = noise.gauss_markov_from_normals(w, sigma, tau_ticks, 1.0, axis=0)
     assert np.array_equal(got, want)
 
@@ -134,11 +134,9 @@ def test_a_finished_run_frees_its_network_without_the_cyclic_collector():
         network.Network.__init__ = init
 
 
-def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, cuts: list[int],
-                              found_before: bool = False) -> int:
-    """A node's counts read window by window (:class:`chain_imu.NodeImuStream`, windows cut at ``cuts``; with
-    ``found_before``, its tick-sum normals' start found before the first) equal, tick for tick, its counts read in
-    one window (:func:`chain_imu.node_counts`); returns the per-sample ticks."""
+def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, cuts: list[int]) -> int:
+    """A node's counts read window by window (:class:`chain_imu.NodeImuStream`, windows cut at ``cuts``) equal, tick
+    for tick, its counts read in one window (:func:`chain_imu.node_counts`); returns the per-sample ticks."""
     scenario = Scenario.model_validate(scenario_keys)
     imu = chain_imu.ChainImu.from_scenario(scenario)
     motion = build_motion(scenario)
@@ -147,8 +145,6 @@ def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, 
     truth = sample_truth.SampleTruth(imu, motion, -34, j_hi, shared=True) if shared else None
     whole = chain_imu.node_counts(imu, motion, RunStreams(seed=5, n_nodes=2), 1, t, dt, R, truth)
     stream = chain_imu.NodeImuStream(imu, motion, RunStreams(seed=5, n_nodes=2), 1, t, dt, R, truth)
-    if found_before:
-        stream.find_tick_sums()
     edges = [0, *cuts, t.size]
     parts = [stream.counts(a, b, truth) for a, b in zip(edges[:-1], edges[1:])]
     for name, axis in (("gyro_counts", 1), ("accel_counts", 1), ("samples", 0), ("true_bias_rad_s", 1)):
@@ -161,8 +157,8 @@ def _windows_equal_one_window(scenario_keys: dict, t: np.ndarray, shared: bool, 
 
 
 def test_a_node_read_in_windows_of_ticks_reads_what_it_reads_at_once():
-    """Tick sums drawn directly (the Gauss-Markov drive carried over each cut, the tick-sum normals found after the
-    whole drive), from the shared truth or from the node's own truth continued window to window; windows of one
+    """Tick sums drawn directly (the Gauss-Markov drive and the tick-sum normals, each in its stream, carried over
+    each cut), from the shared truth or from the node's own truth continued window to window; windows of one
     tick, uneven ones, and a cut right after the first tick."""
     keys = {"chain": {"nodes": 2}, "simulation": {"duration_s": 600.0, "realizations": 3},
             "metrics": {"window_start_s": 0.0, "window_end_s": 600.0}}
@@ -170,8 +166,7 @@ def test_a_node_read_in_windows_of_ticks_reads_what_it_reads_at_once():
     for shared in (True, False):
         for cuts in ([1], [1, 2, 3, 500, 501, 1097], [137, 700]):
             assert _windows_equal_one_window(keys, t, shared, cuts) == 0
-    assert _windows_equal_one_window(keys, t, True, [137, 700], found_before=True) == 0  # as a run in windows does
-    keys["sensor"] = {"gyro_bias_instability_deg_s": 0.0}  # no drive: the tick-sum normals start the stream
+    keys["sensor"] = {"gyro_bias_instability_deg_s": 0.0}  # no drive: its stream is not drawn from
     assert _windows_equal_one_window(keys, t, True, [1, 600]) == 0
 
 
