@@ -182,10 +182,12 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
     surveys = list(net.ground)  # each set to its frame as it is made; grows window by window
 
     def prepare() -> None:  # every node's carried state, while phase 1 makes the first window's records final
-        for n in sorted(range(N), key=lambda i: net.nodes[i].t_s[0]):  # the first window's nodes first
+        for i, n in enumerate(sorted(range(N), key=lambda j: net.nodes[j].t_s[0])):  # the first window's nodes first
             t = net.nodes[n].t_s
             nodes[n] = _Node(net, n, plan, sensors.imu, sensors.span, stream.node_windows(net.nodes[n].node_id, t, R),
                              net.node_ticks * R)
+            if i % spill.DROP_EVERY_ROWS == spill.DROP_EVERY_ROWS - 1:
+                spill.drop(net.scratch)  # the tick plan's rows read (and the tick table's pages): ~1 GB at once else
 
     try:
         steps = _steps(net, K, sensors, phase1, senders, surveys, prepare)
