@@ -158,6 +158,24 @@ def field_range(width, signed):
     return lo, hi
 
 
+KEPT, SATURATED, REJECTED = 0, 1, 2  # what :func:`fit_field` did with a value (kept: it fits, or WRAP)
+
+
+@njit(cache=True, inline="always")
+def fit_field(v, layout, i):
+    """(the value field ``i`` (layout row ``i``) stores of ``v``, KEPT / SATURATED / REJECTED): a value outside the
+    field's range is clamped (SATURATE), rejected (REJECT) or kept whole, its low bits written (WRAP: the value
+    modulo ``2**bits``).  The one place the field policies (module docstring) are applied."""
+    lo, hi = field_range(layout[i, 1], layout[i, 2])
+    if lo <= v <= hi:
+        return v, KEPT
+    if layout[i, 3] == REJECT:
+        return v, REJECTED
+    if layout[i, 3] == SATURATE:
+        return (lo if v < lo else hi), SATURATED
+    return v, KEPT
+
+
 @njit(cache=True, inline="always")
 def encode_frame(values, layout, kind, out):
     """Write one frame of type ``kind`` into ``out`` (uint8, the frame length) from ``values`` (int64, one per
@@ -166,18 +184,13 @@ def encode_frame(values, layout, kind, out):
     n_sat = 0
     out[0] = np.uint8(kind)
     for i in range(layout.shape[0]):
-        off, width, signed, policy = layout[i, 0], layout[i, 1], layout[i, 2], layout[i, 3]
-        bits = 8 * width
-        lo, hi = field_range(width, signed)
-        v = values[i]
-        if v < lo or v > hi:
-            if policy == REJECT:
-                return -(1 + i)
-            if policy == SATURATE:
-                v = lo if v < lo else hi
-                n_sat += 1
-            # WRAP: the low bits below are the value modulo 2**bits
-        u = v & ((np.int64(1) << bits) - 1)
+        off, width = layout[i, 0], layout[i, 1]
+        v, what = fit_field(values[i], layout, i)
+        if what == REJECTED:
+            return -(1 + i)
+        if what == SATURATED:
+            n_sat += 1
+        u = v & ((np.int64(1) << (8 * width)) - 1)
         for j in range(width):
             out[off + j] = np.uint8((u >> (8 * j)) & 0xFF)
     n = out.shape[0] - 2
@@ -193,26 +206,22 @@ def frame_status(values, layout):
     (>= 0), or ``-(1 + i)`` for the first REJECT field ``i`` whose value does not fit."""
     n_sat = 0
     for i in range(layout.shape[0]):
-        lo, hi = field_range(layout[i, 1], layout[i, 2])
-        if values[i] < lo or values[i] > hi:
-            if layout[i, 3] == REJECT:
-                return -(1 + i)
-            if layout[i, 3] == SATURATE:
-                n_sat += 1
+        what = fit_field(values[i], layout, i)[1]
+        if what == REJECTED:
+            return -(1 + i)
+        if what == SATURATED:
+            n_sat += 1
     return n_sat
 
 
 @njit(cache=True, inline="always")
 def field_value(v, layout, i):
     """What field ``i`` (layout row ``i``) of a frame :func:`encode_frame` wrote from ``v`` decodes to
-    (:func:`decode_field`), without the bytes: ``v`` saturated into the field (SATURATE), else its low bits,
-    sign-extended for a signed field (WRAP; ``v`` itself for a REJECT field's value that fits)."""
+    (:func:`decode_field`), without the bytes: :func:`fit_field`'s value, its low bits sign-extended for a signed
+    field (for a frame that was sent: no REJECT field out of range)."""
     width, signed = layout[i, 1], layout[i, 2]
-    lo, hi = field_range(width, signed)
-    if layout[i, 3] == SATURATE and (v < lo or v > hi):
-        return lo if v < lo else hi
     bits = 8 * width
-    u = v & ((np.int64(1) << bits) - 1)
+    u = fit_field(v, layout, i)[0] & ((np.int64(1) << bits) - 1)
     if signed and u >= (np.int64(1) << (bits - 1)):
         u -= np.int64(1) << bits
     return u
