@@ -325,9 +325,15 @@ class _Sensors:
         self.truth = self._later(lambda: _window_truth(self.net, self.imu, self.span, last(), bounds))
 
     def submit(self, x: _Node, k0: int, k1: int) -> Callable:
-        """The readings of node ``x``'s ticks k0 .. k1 - 1, asked for now: a function that returns them."""
-        truth, motion = self.truth, self.net.motion
-        return self._later(lambda: (x.imu.counts(k0, k1, truth()), motion.attitude(x.n, x.node.t_s[k0:k1])))
+        """The readings of node ``x``'s ticks k0 .. k1 - 1, asked for now: a function that returns them (count sums,
+        true attitude, the ticks' times: :func:`.events.tick_times`, a new array, not a view of the tick table,
+        whose pages leave memory)."""
+        net, truth = self.net, self.truth
+
+        def read() -> tuple:
+            t = ev.tick_times(net.tick_table, net.tick_clock(), x.n, k0, k1)
+            return x.imu.counts(k0, k1, truth()), net.motion.attitude(x.n, t), t
+        return self._later(read)
 
     def shutdown(self) -> None:
         if self.pool is not None:
@@ -364,10 +370,9 @@ def _window(net, nodes: list, n: int, k0: int, k1: int, sensed: tuple, out: ev.R
     ``net.ground`` of the surveys it sent at those ticks)."""
     x = nodes[n]
     node, R = net.nodes[n], net.R
-    t = ev.tick_times(net.tick_table, net.tick_clock(), n, k0, k1)  # (not a view: the table's pages leave memory)
+    c, att, t = sensed  # (count sums, true attitude, times) of the window's ticks (:meth:`_Sensors.submit`)
     W = k1 - k0
     codes = np.array(plan[n, k0:k1])
-    c, att = sensed  # (count sums, true attitude) of the window's ticks
     x.clipped += c.gyro_clipped_samples + c.accel_clipped_samples
     running = ev.running_ticks(codes, t, node.dead_at_s)
     applied, offset, src_tick = out.applied[:, n, k0:k1], out.src_offset[:, n, k0:k1], out.src_tick[:, n, k0:k1]
