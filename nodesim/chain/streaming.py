@@ -42,12 +42,13 @@ from nodesim.scenario.schema import Scenario
 INTEGER_COLUMNS = ("node", "running", "update")
 """The timeseries columns that hold integers (one value per node's row group, or 0/1 flags)."""
 
-DICTIONARY_COLUMNS = ("running",)
-"""The timeseries columns dictionary-encoded: the 0/1 filter-running flag (runs of one value a node)."""
+DICTIONARY_COLUMNS = ("node", "running")
+"""The timeseries columns dictionary-encoded: the node's id (one value a row group's block) and the 0/1
+filter-running flag (runs of one value a node): one dictionary entry or two, and runs of its index."""
 
-PLAIN_COLUMNS = ("node", "update_age_s", "yaw_sigma_deg")
-"""The timeseries columns written plain, left to zstd: the node's id (one value a row group's block), the ages of
-the few frames in flight and the fixed-point filter's P_yy (a handful of words once settled)."""
+PLAIN_COLUMNS = ("update_age_s", "yaw_sigma_deg")
+"""The timeseries columns written plain, left to zstd: the ages of the few frames in flight and the fixed-point
+filter's P_yy (a handful of words once settled)."""
 
 FAST_ZSTD_COLUMNS = ("true_yaw_deg", "yaw_est_deg", "yaw_error_deg", "bias_true_deg_s", "bias_est_deg_s",
                      "inclination_deg", "azimuth_deg")
@@ -73,17 +74,21 @@ default) and -5 for the :data:`FAST_ZSTD_COLUMNS`; the :data:`DICTIONARY_COLUMNS
 :data:`PLAIN_COLUMNS` plain, the other integer columns delta-encoded (the 0/1 update flag packs to a few bits a
 row), the other float columns byte-stream split (the k-th bytes of all values side by side, which zstd packs
 better); min/max statistics for ``node`` and ``t_s`` only (what a reader filters row groups on).  The writer is the
-run's largest single consumer of CPU (~25 % of the drilling day's).  Measured column by column on 16 of the drilling
-day's row groups (1.3 M rows, 2026-12-06, thread time, min of 5; ``/tmp`` scripts, not kept): ``node`` 3.4 ns a
-row plain against 7.1 delta and 4.9 dictionary; ``running`` 5.4 dictionary against 6.9 delta; ``update_age_s`` 15.0
-plain against 17.2 dictionary and 21.5 byte-stream split; ``yaw_sigma_deg`` 19.2 plain against 20.5 dictionary and
-30.3 byte-stream split; ``yaw_est_deg`` 15.2 at level -5 against 18.6 at -1 (4.54 against 4.12 bytes),
-``yaw_error_deg`` 9.9 against 13.7.  The whole table (interleaved, min / median of 5): 172 / 179 ns and 30.4
-bytes a row against 201 / 207 ns and 28.5 bytes with the options before (dictionaries on ``update_age_s`` and
-``yaw_sigma_deg``, delta on all integer columns, level -1 throughout), 187 / 191 ns and 29.0 bytes with these
-encodings at level -1 throughout, 167 / 169 ns and 31.9 bytes at level -10 on the noisy columns.  Earlier
-(2026-12-03/05): the filter's estimates and the true yaw 3-10x slower with a dictionary; nullable columns and
-statistics on all cost ~50 ns a row; plain zstd without byte-stream split 37.4 bytes a row."""
+run's largest single consumer of CPU (~25 % of the drilling day's).  Measured on 16 of the drilling day's row
+groups (its first 8 hours, one node's window each, 1.3 M rows, 2026-12-06, thread time, 9 rounds interleaved, min /
+median): the whole table 154.3 / 157.5 ns and 29.41 bytes a row, against 173.1 / 178.2 ns and 31.41 bytes with
+``node`` plain (zstd took ~20 ns a row over its constant 8 bytes, the dictionary's run of one index next to
+nothing); a dictionary on ``yaw_sigma_deg`` (155.1 / 160.5 ns), ``update_age_s`` (155.5 / 163.2), ``update``
+(152.8 / 157.9) or the true inclination and azimuth (155.3 / 161.0) gained nothing beyond noise; neither did larger
+data pages (8 MB) or write batches (64 k rows).  Column by column (1.3 M rows, 2026-12-06, min of 5):
+``running`` 5.4 ns a row dictionary against 6.9 delta; ``update_age_s`` 15.0 plain against 17.2 dictionary and
+21.5 byte-stream split; ``yaw_sigma_deg`` 19.2 plain against 20.5 dictionary and 30.3 byte-stream split;
+``yaw_est_deg`` 15.2 at level -5 against 18.6 at -1 (4.54 against 4.12 bytes), ``yaw_error_deg`` 9.9 against
+13.7.  The whole table before (interleaved, min / median of 5): 172 / 179 ns and 30.4 bytes a row against 201 / 207
+ns and 28.5 bytes with dictionaries on ``update_age_s`` and ``yaw_sigma_deg``, delta on all integer columns and
+level -1 throughout, 167 / 169 ns and 31.9 bytes at level -10 on the noisy columns.  Earlier (2026-12-03/05): the
+filter's estimates and the true yaw 3-10x slower with a dictionary; nullable columns and statistics on all cost ~50
+ns a row; plain zstd without byte-stream split 37.4 bytes a row."""
 
 
 def timeseries_table(columns: dict[str, np.ndarray]):
