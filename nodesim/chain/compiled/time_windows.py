@@ -30,6 +30,7 @@ node.
 
 from __future__ import annotations
 
+import gc
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
@@ -189,6 +190,7 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
             if i % spill.DROP_EVERY_ROWS == spill.DROP_EVERY_ROWS - 1:
                 spill.drop(net.scratch)  # the tick plan's rows read (and the tick table's pages): ~1 GB at once else
 
+    gc.freeze()  # the objects made before (modules, the network, the nodes) left out of the collections: below
     try:
         steps = _steps(net, K, sensors, phase1, senders, surveys, prepare)
         ahead: list = []  # the next steps, their sensors under way on the worker
@@ -219,6 +221,7 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
     finally:
         outputs.shutdown()
         sensors.shutdown()
+        gc.unfreeze()  # collectable again, as before the run
     out = phase1.result()[1]
     summaries = []
     for n in range(N):
