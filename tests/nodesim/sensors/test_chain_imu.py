@@ -206,3 +206,38 @@ def test_a_truth_continued_from_another_sums_as_one_truth_over_both():
     assert np.array_equal(np.concatenate([head._sums[:-1], tail._sums]), one._sums)
     restarted = sample_truth.SampleTruth(imu, motion, b, c, 1)
     assert not np.array_equal(restarted._sums[1:] + head.end_sums, one._sums[b - a + 1:])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_window_check_of_the_direct_draws_marks_the_ticks_the_tick_by_tick_check_marks(seed):
+    """_direct_invalid's shortcut (every tick valid when the window's largest bounds are) sets the same ticks as the
+    tick-by-tick check, on windows all valid, with a few ticks near full scale, with NaNs and without ticks."""
+    rng = np.random.default_rng(seed)
+    K = 500
+    T = chain_imu.tilt_matrices(rng.normal(scale=0.02, size=(1, 2)))[0]
+    g_lo, g_hi, a_lo, a_hi = -32768 * 34, 32767 * 34, -32768 * 34, 32767 * 34
+    cases = []
+    for near in (False, True):
+        umax_gz, umax_a = rng.uniform(0, 2e5, K), rng.uniform(0, 3e5, (K, 3))
+        gm = rng.normal(scale=50.0, size=(K, 3))
+        if near:  # a few ticks (and the bias of one) at full scale
+            umax_gz[rng.integers(0, K, 3)] = 1.02 * g_hi
+            umax_a[rng.integers(0, K, 2), rng.integers(0, 3)] = 1.02 * a_hi
+            gm[rng.integers(0, K), 1] = 2e6
+        cases.append((umax_gz, umax_a, gm))
+    nan_gm = cases[0][2].copy()
+    nan_gm[7, 2] = np.nan
+    cases += [(cases[0][0], cases[0][1], nan_gm), (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))]
+    marked = []
+    for umax_gz, umax_a, gm in cases:
+        args = (umax_gz, umax_a, T, 1.001, 40.0, -3.0, gm, 3.0, 5.0, g_lo, g_hi, a_lo, a_hi)
+        got = (np.ones(gm.shape[0], bool), np.ones(gm.shape[0], bool))
+        want = (np.zeros(gm.shape[0], bool), np.zeros(gm.shape[0], bool))
+        chain_imu._direct_invalid(*args, *got)
+        chain_imu._direct_invalid_ticks(*args, *want)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        marked.append((int(want[0].sum()), int(want[1].sum())))
+    assert marked[0] == (0, 0) and 0 < marked[1][0] < K and 0 < marked[1][1] < K, marked  # all valid; some ticks each
+    assert chain_imu._window_valid(*cases[0][:2], T, 1.001, 40.0, -3.0, cases[0][2], 3.0, 5.0, g_lo, g_hi, a_lo, a_hi)
+    assert not chain_imu._window_valid(*cases[1][:2], T, 1.001, 40.0, -3.0, cases[1][2], 3.0, 5.0, g_lo, g_hi, a_lo,
+                                       a_hi)
