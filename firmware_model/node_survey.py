@@ -118,11 +118,11 @@ def yaw_to_ba32(yaw_raw, yaw_frac_bits):
 
 
 @njit(cache=True, _nrt=False)
-def resolve_cordic_lanes(work, iterations):
+def resolve_cordic_lanes(work, iterations, lanes32=None):
     """(I, A) binary angles by integer CORDIC (module docstring) of every lane j of ``work`` (int64 (WORK_ROWS, n)):
     rows W_FX, W_FY, W_FZ the count sums and W_YAW32 the yaw binary angle in, rows W_INC, W_AZI the result out
     (the other rows and the inputs are overwritten); both vectorings run over all lanes at once
-    (:func:`firmware_model.cordic.vectoring_lanes`)."""
+    (:func:`firmware_model.cordic.vectoring_lanes`, their micro-rotations in ``lanes32``, int32 (3, n), if given)."""
     fx, fy, fz = work[W_FX], work[W_FY], work[W_FZ]
     for j in range(fx.shape[0]):
         m = max(abs(fx[j]), abs(fy[j]), abs(fz[j]))
@@ -131,8 +131,8 @@ def resolve_cordic_lanes(work, iterations):
         if m > 0:
             s = cordic.norm_shift(m, SURVEY_NORM_BITS)
             fx[j], fy[j], fz[j] = cordic.shift(fx[j], s), cordic.shift(fy[j], s), cordic.shift(fz[j], s)
-    cordic.vectoring_lanes(fx, fy, iterations, work[W_AZI], work[W_SHIFT])  # toolface -> W_AZI, h -> W_FX
-    cordic.vectoring_lanes(fz, fx, iterations, work[W_INC], work[W_SHIFT])  # inclination -> W_INC
+    cordic.vectoring_lanes(fx, fy, iterations, work[W_AZI], work[W_SHIFT], lanes32)  # toolface -> W_AZI, h -> W_FX
+    cordic.vectoring_lanes(fz, fx, iterations, work[W_INC], work[W_SHIFT], lanes32)  # inclination -> W_INC
     inc, azi, yaw32 = work[W_INC], work[W_AZI], work[W_YAW32]
     for j in range(inc.shape[0]):
         inc[j], azi[j] = abs(inc[j]), (azi[j] + yaw32[j]) & MASK32
@@ -328,6 +328,7 @@ def fixed_surveys_window(accel_counts, yaw_raw, samples, k_base, align_lo, align
         raise FirmwareError("survey: cordic iterations outside MIN_ITERATIONS..MAX_ITERATIONS")
     R, K = yaw_raw.shape
     work = np.zeros((WORK_ROWS, BLOCK), dtype=np.int64)
+    lanes32 = np.zeros((3, BLOCK), dtype=np.int32)  # the CORDIC's micro-rotations (cordic.vectoring_lanes)
     for r in range(R):
         state = states[r]
         if k_base == 0:
@@ -346,7 +347,7 @@ def fixed_surveys_window(accel_counts, yaw_raw, samples, k_base, align_lo, align
                     work[W_INC, j], work[W_AZI, j] = resolve(fx, fy, fz, psi, mode, iterations)
             if mode == MODE_CORDIC:
                 work[:W_YAW32 + 1, n:] = 0  # a last, partial block: zero vectors in the unused lanes
-                resolve_cordic_lanes(work, iterations)
+                resolve_cordic_lanes(work, iterations, lanes32)
             for j in range(n):
                 inc_raw_out[r, k0 + j], azi_raw_out[r, k0 + j] = ma_push(state, points, work[W_INC, j], work[W_AZI, j])
 
