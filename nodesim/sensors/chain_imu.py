@@ -425,8 +425,8 @@ def _direct_invalid(umax_gz, umax_a, T, gain, b_on, b_res, gm, sigma_g, sigma_a,
     ``gm`` (K, 3)): whether some axis' bound fails (:func:`_tick_sums`), so that the tick must be read per
     sample.  A function of its own, not inlined: inlined after the draws' loop nest, the day's long nodes drew
     ~45 % slower.  The window's largest bounds first (:func:`_window_valid`): where they are valid every tick's are,
-    and no tick is checked (~8 ns a tick of the draws' ~57, drilling day node-window, min of 25, 2026-12-06);
-    else tick by tick (:func:`_direct_invalid_ticks`)."""
+    and no tick is checked (tick by tick ~8 ns a tick of the draws' ~57, the window's check ~4; drilling-day
+    node-window, min of 25, 2026-12-06); else tick by tick (:func:`_direct_invalid_ticks`)."""
     if _window_valid(umax_gz, umax_a, T, gain, b_on, b_res, gm, sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi):
         g_sel[:] = False
         a_sel[:] = False
@@ -435,13 +435,25 @@ def _direct_invalid(umax_gz, umax_a, T, gain, b_on, b_res, gm, sigma_g, sigma_a,
                               g_sel, a_sel)
 
 
+@njit(cache=True, inline="always")
+def _axis_valid(T, i, gain, b_on, b_res, u_gz, u_a0, u_a1, u_a2, b_gm, sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi):
+    """(gyro, accelerometer) axis ``i``'s bounds valid (:func:`_tick_sums`, ``valid_one``) for the largest |u| of
+    the z gyro ``u_gz`` and of the accelerometer axes ``u_a*`` and the Gauss-Markov bias ``b_gm`` of that axis."""
+    t0, t1, t2 = abs(T[i, 0]), abs(T[i, 1]), abs(T[i, 2])
+    b_max = max(abs(b_on + b_gm), abs(b_on + b_res + b_gm))
+    return (tc.valid_one(abs(gain) * (t2 * u_gz) + b_max, sigma_g, g_lo, g_hi),
+            tc.valid_one(t0 * u_a0 + t1 * u_a1 + t2 * u_a2, sigma_a, a_lo, a_hi))
+
+
 @njit(cache=True, _nrt=False, nogil=True)
 def _window_valid(umax_gz, umax_a, T, gain, b_on, b_res, gm, sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi) -> bool:
     """Whether every tick's bound is valid (:func:`_direct_invalid_ticks` sets no tick), from the window's largest
-    bounds: the bounds are the tick's expressions of the largest ``umax_*`` and, per axis, of the extreme Gauss-Markov
-    bias (|c + x| is largest at an end of x's range); a rounded product or sum does not decrease when an operand
-    grows, so no tick's bound exceeds these, and where they are valid every tick's is.  False where a value is NaN
-    (the ticks decide)."""
+    bounds: :func:`_axis_valid` of the largest ``umax_*`` and of each end of the axis' Gauss-Markov bias range
+    (|c + x| is largest at an end of x's range); a rounded product or sum does not decrease when an operand grows,
+    so no tick's bound exceeds these, and where they are valid every tick's is.  False where a value is NaN (the
+    ticks decide)."""
+    if gm.shape[0] == 0:
+        return True
     ug, ua0, ua1, ua2 = -np.inf, -np.inf, -np.inf, -np.inf  # the largest umax of the z gyro and of each accel axis
     lo0, lo1, lo2, hi0, hi1, hi2 = np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf  # each axis' bias range
     for k in range(gm.shape[0]):
@@ -453,25 +465,24 @@ def _window_valid(umax_gz, umax_a, T, gain, b_on, b_res, gm, sigma_g, sigma_a, g
         lo0, lo1, lo2, hi0, hi1, hi2 = min(lo0, x0), min(lo1, x1), min(lo2, x2), max(hi0, x0), max(hi1, x1), max(hi2, x2)
     ok = True
     for i in range(3):
-        t0, t1, t2 = abs(T[i, 0]), abs(T[i, 1]), abs(T[i, 2])
-        g_min, g_max = (lo0, hi0) if i == 0 else (lo1, hi1) if i == 1 else (lo2, hi2)
-        b_max = max(max(abs(b_on + g_min), abs(b_on + b_res + g_min)), max(abs(b_on + g_max), abs(b_on + b_res + g_max)))
-        ok &= tc.valid_one(abs(gain) * (t2 * ug) + b_max, sigma_g, g_lo, g_hi)
-        ok &= tc.valid_one(t0 * ua0 + t1 * ua1 + t2 * ua2, sigma_a, a_lo, a_hi)
-    return ok or gm.shape[0] == 0
+        for b_gm in ((lo0, hi0) if i == 0 else (lo1, hi1) if i == 1 else (lo2, hi2)):
+            ok_g, ok_a = _axis_valid(T, i, gain, b_on, b_res, ug, ua0, ua1, ua2, b_gm, sigma_g, sigma_a, g_lo, g_hi,
+                                     a_lo, a_hi)
+            ok &= ok_g and ok_a
+    return ok
 
 
 @njit(cache=True, _nrt=False, nogil=True)
 def _direct_invalid_ticks(umax_gz, umax_a, T, gain, b_on, b_res, gm, sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi, g_sel,
                           a_sel) -> None:
-    """:func:`_direct_invalid` tick by tick."""
+    """:func:`_direct_invalid` tick by tick (:func:`_axis_valid` of every axis)."""
     for k in range(gm.shape[0]):
         ok_g, ok_a = True, True
         for i in range(3):
-            t0, t1, t2 = abs(T[i, 0]), abs(T[i, 1]), abs(T[i, 2])
-            b_max = max(abs(b_on + gm[k, i]), abs(b_on + b_res + gm[k, i]))
-            ok_g &= tc.valid_one(abs(gain) * (t2 * umax_gz[k]) + b_max, sigma_g, g_lo, g_hi)
-            ok_a &= tc.valid_one(t0 * umax_a[k, 0] + t1 * umax_a[k, 1] + t2 * umax_a[k, 2], sigma_a, a_lo, a_hi)
+            g, a = _axis_valid(T, i, gain, b_on, b_res, umax_gz[k], umax_a[k, 0], umax_a[k, 1], umax_a[k, 2], gm[k, i],
+                               sigma_g, sigma_a, g_lo, g_hi, a_lo, a_hi)
+            ok_g &= g
+            ok_a &= a
         g_sel[k], a_sel[k] = not ok_g, not ok_a
 
 
