@@ -19,8 +19,9 @@ demo: $(STAMP)
 	rm -rf runs/demo-continuous  # the demo's own directory: a run never writes into a used one
 	$(BIN)/nodesim run scenarios/lab/continuous.toml --out runs/demo-continuous
 
-# the suite on TEST_WORKERS processes (pytest-xdist); each takes whole files, in order (tests that read what an
-# earlier test of their file recorded need it): 4.6 min against 10 min in one process on 2 cores (2026-12-07)
+# the suite on TEST_WORKERS processes (pytest-xdist; 0: in this one), each taking whole files, in order (tests
+# that read what an earlier test of their file recorded need it): 4.6 min against 10 min in one process on 2 cores
+# (2026-12-07)
 TEST_WORKERS ?= 2
 
 test: $(STAMP)

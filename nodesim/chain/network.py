@@ -194,6 +194,7 @@ class Network:
             node.radio = RadioState(R, mac.queue_length)
             node.fallback = faults.Fallback.new(scenario, skips[i + 1] if i + 1 < c.nodes else None, R)
             self.nodes.append(node)
+        scratch.write_out(self.scratch)  # the table's pages to the disk now, while a core is idle (write_out)
         self._clock = (affine, first, period, offset)
         self.sent: list[SurveyPacket] = []
         self.ground: list[GroundSurvey] = []

@@ -34,7 +34,7 @@ at least this long ago.  Dropping what the previous call started (one step, ~4 M
 ALIGN_BYTES = 2**20  # the dropped ranges end on this boundary (whole pages: none is left behind between two calls)
 
 
-def _sync_file_range():
+def sync_file_range():
     """The C library's ``sync_file_range`` (Linux), or None (then :class:`WriteBehind` does nothing)."""
     if not hasattr(os, "posix_fadvise"):
         return None
@@ -45,7 +45,7 @@ class WriteBehind:
     """Write-behind (module docstring) for the file at ``path``, which another handle appends to."""
 
     def __init__(self, path):
-        self._call = _sync_file_range()
+        self._call = sync_file_range()
         self._fd = os.open(path, os.O_RDONLY) if self._call is not None else None
         self._started = 0  # bytes whose writing out was started
         self._dropped = 0  # bytes dropped from the cache

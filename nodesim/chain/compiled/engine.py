@@ -256,6 +256,7 @@ def _resolve(net, links: _Links, T: np.ndarray, K: np.ndarray, plan: np.ndarray,
             full[0] = full[0] or status != ev.DONE
             if (e_first + chunk[0].size) // DROP_EVERY_EVENTS > e_first // DROP_EVERY_EVENTS:
                 spill.drop(net.scratch)  # the pages of the tables read and written so far leave the process
+                spill.write_out(net.scratch)  # and go to the disk now, not in one burst later (ScratchArrays.write_out)
             return status
 
         def scatter(chunk: tuple, slot: int) -> None:

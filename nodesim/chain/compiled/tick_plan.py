@@ -58,4 +58,5 @@ def tick_plan(nodes, Kmax: int, arrays=None) -> np.ndarray:
         spill.write(arrays, plan[n, :t.size], node_codes(t, node.timeline, node.scheduled, node.dead_at_s))
         if n % spill.DROP_EVERY_ROWS == spill.DROP_EVERY_ROWS - 1:
             spill.drop(arrays)
+    spill.write_out(arrays)  # its pages to the disk now, while a core is idle (:meth:`.ScratchArrays.write_out`)
     return plan

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -75,6 +76,46 @@ def test_write_puts_the_values_in_the_file_the_mapping_reads(tmp_path):
     plain = np.zeros(3)
     scratch.write(None, plain, np.arange(3.0))  # no scratch arrays: in memory
     assert plain.tolist() == [0.0, 1.0, 2.0]
+
+
+def _join_write_out() -> None:
+    for t in threading.enumerate():
+        if t.name == "nodesim-write-out":
+            t.join()
+
+
+def test_write_out_starts_writing_every_array_to_its_file_and_keeps_the_values(tmp_path, monkeypatch):
+    real = scratch.sync_file_range()
+    if real is None:
+        pytest.skip("no sync_file_range here (not Linux with glibc)")
+    calls = []
+
+    def recording():
+        def call(fd, offset, nbytes, flags):
+            result = real(fd, offset, nbytes, flags)
+            calls.append((fd, offset, nbytes, flags, result))
+            return result
+        return call
+
+    monkeypatch.setattr(scratch, "sync_file_range", recording)
+    s = scratch.ScratchArrays(tmp_path)
+    a, b = s.empty((64, 4096), np.float64), s.empty((3,), np.int8)
+    values = np.arange(a.size, dtype=float).reshape(a.shape)
+    s.write(a, values)
+    b[:] = [1, -2, 3]  # through the mapping
+    s.write_out()
+    _join_write_out()
+    # each array's file, from its start to its end, writing started and not waited for, and the kernel took it
+    assert sorted(c[0] for c in calls) == sorted(fd for _, _, fd in s._regions)
+    assert [c[1:] for c in calls] == [(0, 0, scratch.SYNC_FILE_RANGE_WRITE, 0)] * 2
+    s.drop()
+    assert np.array_equal(a, values) and b.tolist() == [1, -2, 3]  # the same values, read back from the files
+    calls.clear()
+    monkeypatch.setattr(scratch, "sync_file_range", lambda: None)  # no such call (not Linux): nothing is done
+    s.write_out()
+    scratch.write_out(None)  # no scratch arrays: nothing
+    _join_write_out()
+    assert calls == []
 
 
 def test_fill_writes_its_value_a_slice_at_a_time(tmp_path, monkeypatch):

@@ -71,7 +71,7 @@ def test_what_is_on_disk_leaves_the_page_cache_and_the_newest_stays(tmp_path, mo
 
 
 def test_without_the_calls_it_does_nothing(tmp_path, monkeypatch):
-    monkeypatch.setattr(write_behind, "_sync_file_range", lambda: None)
+    monkeypatch.setattr(write_behind, "sync_file_range", lambda: None)
     path = tmp_path / "f.bin"
     path.write_bytes(b"x" * 10)
     behind = WriteBehind(path)

@@ -2,9 +2,11 @@
 directory behind (nodesim.sweep.watchdog)."""
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -46,8 +48,9 @@ def _alive(pid: int) -> bool:
 
 def test_sigkill_of_the_sweep_driver_leaves_no_process_and_no_temp_dir(make_sweep, tmp_path):
     sweep = make_sweep("seeds = 40\n")
-    scratch = tmp_path / "tmp"
-    scratch.mkdir()
+    # a short TMPDIR: multiprocessing's fork server binds a socket under it, whose path must fit in 108 bytes (pytest's
+    # tmp_path under pytest-xdist, /tmp/pytest-of-<user>/pytest-<n>/popen-gw<i>/<test name>/..., may not)
+    scratch = Path(tempfile.mkdtemp(prefix="nodesim-wd-"))
     env = {**os.environ, "TMPDIR": str(scratch)}
     env.pop("NODESIM_POOL_TOKEN", None)
     cmd = [sys.executable, "-m", "nodesim.cli.main", "sweep", str(sweep), "--out", str(tmp_path / "c"),
@@ -75,6 +78,7 @@ def test_sigkill_of_the_sweep_driver_leaves_no_process_and_no_temp_dir(make_swee
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
 def test_a_dask_localcluster_leaves_nothing_in_the_temp_dir(make_sweep, tmp_path, monkeypatch):
