@@ -8,7 +8,8 @@ rest in memory.  :class:`ScratchArrays` keeps such arrays in an unlinked tempora
 with ``posix_fallocate``: a full disk is a clear error before the run, never a SIGBUS in it), memory-mapped shared,
 and :meth:`ScratchArrays.drop` takes their pages out of the process (``madvise(MADV_DONTNEED)``: a shared file
 mapping keeps its contents in the file, and the next read maps them again).  The engine drops them after each chunk
-of phase 1 and every few nodes of phase 2, so the run's peak resident memory no longer grows with its duration.  The
+of phase 1 and every few nodes of phase 2, so the run's peak resident memory no longer grows with its duration, and
+starts writing them out to the disk as they are made (:meth:`ScratchArrays.write_out`), not in one burst later.  The
 values are the same wherever they are kept: the kernel only decides where the bytes live.
 
 The file goes to the temporary directory (``TMPDIR``); where that is a RAM file system (tmpfs), nothing is spilled
