@@ -190,7 +190,8 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
             if i % spill.DROP_EVERY_ROWS == spill.DROP_EVERY_ROWS - 1:
                 spill.drop(net.scratch)  # the tick plan's rows read (and the tick table's pages): ~1 GB at once else
 
-    gc.freeze()  # the objects made before (modules, the network, the nodes) left out of the collections: below
+    frozen_before = gc.get_freeze_count()  # a caller's own frozen objects stay frozen after the run
+    gc.freeze()  # the objects made before (modules, the network) left out of the collections: below
     try:
         steps = _steps(net, K, sensors, phase1, senders, surveys, prepare)
         ahead: list = []  # the next steps, their sensors under way on the worker
@@ -221,7 +222,8 @@ def run_windows(net, phase1: PhaseOne, plan, K: np.ndarray, stream, senders: lis
     finally:
         outputs.shutdown()
         sensors.shutdown()
-        gc.unfreeze()  # collectable again, as before the run
+        if not frozen_before:
+            gc.unfreeze()  # collectable again, as before the run
     out = phase1.result()[1]
     summaries = []
     for n in range(N):

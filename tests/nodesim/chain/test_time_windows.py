@@ -267,3 +267,22 @@ def test_phase_one_on_its_thread_stops_when_phase_two_fails(tmp_path, monkeypatc
     assert len(made) == 1
     with pytest.raises(phase_one.Cancelled):
         made[0].result()
+
+
+def test_a_run_in_windows_leaves_the_collector_as_it_found_it(tmp_path, monkeypatch):
+    """The windows freeze the objects made before them (gc.freeze) and unfreeze them after: nothing stays frozen
+    after a run, and a caller's own frozen objects stay frozen."""
+    import gc
+
+    scenario = load_scenario(FIELD)[0].with_overrides(**{"chain.nodes": 3, "filter.implementation": "fixed"})
+    gc.unfreeze()
+    _run(tmp_path, "free", scenario, monkeypatch, 113.0)
+    assert gc.get_freeze_count() == 0
+    gc.freeze()  # the caller's
+    try:
+        mine = gc.get_freeze_count()
+        assert mine > 0
+        _run(tmp_path, "frozen", scenario, monkeypatch, 113.0)
+        assert gc.get_freeze_count() > mine // 2  # still frozen (a few of them freed meanwhile), not unfrozen
+    finally:
+        gc.unfreeze()
