@@ -257,7 +257,7 @@ def _day_slice(tmp: Path, hours: int) -> Path:
     return path
 
 
-PEAK = ("import os, sys\nfrom nodesim.cli.main import main\ncode = main(sys.argv[1:])\n"
+PEAK = ("import os, sys\nfrom nodesim.cli.main import console\ncode = console(sys.argv[1:])\n"
         "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM:')][0].split()[1]\n"
         "print('peak_kib', hwm, file=sys.stderr)\nprint('cpu_s', sum(os.times()[:2]), file=sys.stderr)\n"
         "sys.exit(code)")

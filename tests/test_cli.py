@@ -150,3 +150,23 @@ def test_bench_from_an_installed_wheel_says_what_it_needs(tmp_path, capsys, monk
     assert main(["bench"]) == 2
     err = capsys.readouterr().err
     assert "source checkout" in err and "[bench]" in err
+
+
+def test_the_console_script_returns_mains_status_and_leaves_the_objects_frozen(tmp_path, capsys):
+    """``nodesim`` is :func:`console`: main's exit status, then the objects frozen so that the interpreter's exit
+    does not collect them all once more (the process ends next)."""
+    import gc
+    import tomllib
+    from pathlib import Path
+
+    from nodesim.cli.main import console
+
+    scripts = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["nodesim"] == "nodesim.cli.main:console"
+    assert gc.get_freeze_count() == 0
+    try:
+        assert console(["run", str(tmp_path / "missing.toml")]) == 2
+        assert gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+    assert "missing.toml" in capsys.readouterr().err

@@ -27,7 +27,8 @@ def test_a_process_reports_its_wall_peak_output_and_cpu(bench):
 
 def test_peak_prints_the_cpu_time_of_the_whole_process(bench):
     """PEAK's own lines after a command that returns (the CPU of a busy loop is counted)."""
-    code = bench.PEAK.replace("from nodesim.cli.main import main", "def main(args):\n    sum(range(3_000_000))\n    return 0")
+    code = bench.PEAK.replace("from nodesim.cli.main import console",
+                             "def console(args):\n    sum(range(3_000_000))\n    return 0")
     _, peak, _, cpu = bench._process(["-c", code])
     assert peak > 1e6 and 0.0 < cpu < 60.0
     with pytest.raises(RuntimeError, match="failed"):
